@@ -1,0 +1,34 @@
+"""Hybrid physics / neural / stochastic models of dynamical systems.
+
+``skhybrid`` models a measured output as the sum of a domain (physics) model fitted
+with :func:`scipy.optimize.least_squares`, neural stages fitted to what the physics
+leaves, and a stochastic noise model for the remainder (Eq. 1 of the method paper)::
+
+    Y = f(X; theta) + NN(X; W) + N(phi)
+
+Every model is a scikit-learn estimator. The subpackages hold:
+
+- :mod:`skhybrid.losses`: the Ljung-Box statistic and the training objectives;
+- :mod:`skhybrid.domain`: physics models fitted with least squares;
+- :mod:`skhybrid.neural`: skorch-backed dense, recurrent and cyclic networks;
+- :mod:`skhybrid.hybrid`: boosting and joint ensembles of the two, and noise models;
+- :mod:`skhybrid.model_selection`: interpolative and extrapolative test sets;
+- :mod:`skhybrid.diagnostics`: residual whiteness and independence tests, figures;
+- :mod:`skhybrid.datasets`: simulators and loaders of measured data;
+- :mod:`skhybrid.preprocessing`: windows of history from raw sequences.
+"""
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "__version__",
+    "datasets",
+    "diagnostics",
+    "domain",
+    "exceptions",
+    "hybrid",
+    "losses",
+    "model_selection",
+    "neural",
+    "preprocessing",
+]

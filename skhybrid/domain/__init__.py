@@ -1,0 +1,19 @@
+"""Domain (physics) models fitted with :func:`scipy.optimize.least_squares`.
+
+Every model declares named parameters with initial values, optional bounds and a
+``fixed`` set, writes its equations once for NumPy and torch, and reports
+``params_`` with standard errors ``params_std_`` after ``fit``.
+"""
+
+from skhybrid.domain._base import DomainModel
+from skhybrid.domain._linear import LinearStateSpaceModel
+from skhybrid.domain._parametric import ParametricModel
+from skhybrid.domain._pendulum import PendulumModel, pendulum_step
+
+__all__ = [
+    "DomainModel",
+    "LinearStateSpaceModel",
+    "ParametricModel",
+    "PendulumModel",
+    "pendulum_step",
+]

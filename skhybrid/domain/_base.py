@@ -1,0 +1,440 @@
+"""DomainModel: physics models with named parameters fitted by least squares."""
+
+import warnings
+from numbers import Integral, Real
+
+import numpy as np
+from scipy.optimize import least_squares
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.losses import OBJECTIVES, objective_residuals
+from skhybrid.preprocessing import step_width
+from skhybrid.utils._array_api import get_namespace
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    StrOptions,
+    _fit_context,
+    validate_data,
+)
+
+__all__ = ["DomainModel"]
+
+
+class DomainModel(RegressorMixin, BaseEstimator):
+    """Base class of domain (physics) models fitted with ``least_squares``.
+
+    A subclass declares its parameters and writes its equations once against an
+    array namespace ``xp``, so that the same code evaluates on NumPy arrays (for
+    :func:`scipy.optimize.least_squares`) and on torch tensors (for exact Jacobians
+    with ``jac="autograd"`` and for joint training with a network in
+    :class:`~skhybrid.hybrid.HybridEnsembleRegressor`). A subclass implements:
+
+    - ``_initial_params(X, y)``: dict of parameter name to initial value (a float or
+      an array), in a fixed order;
+    - ``_equations(X, params, xp)``: predictions of shape ``(n_samples, n_outputs)``
+      from rows ``X`` and a dict of parameters;
+    - optionally ``_default_bounds()`` and ``_check_layout(n_step_features,
+      n_outputs)``, which raises a ValueError for data of the wrong shape.
+
+    Parameters
+    ----------
+    fixed : tuple of str, default=()
+        Parameters held at their initial values during ``fit``.
+    bounds : dict of str to (float, float) or None, default=None
+        Lower and upper bound of named parameters; ``None`` uses the model's
+        defaults. Use ``-numpy.inf`` / ``numpy.inf`` for a one-sided bound.
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        What ``least_squares`` minimises (see :mod:`skhybrid.losses.base`). A
+        Ljung-Box term assumes the training rows are in time order.
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    jac : {"2-point", "3-point", "autograd"}, default="2-point"
+        Jacobian of the residual vector: finite differences, or exact by torch's
+        automatic differentiation of the same equations.
+    loss : {"linear", "soft_l1", "huber", "cauchy", "arctan"}, default="linear"
+        Robust loss of ``least_squares``.
+    f_scale : float, default=1.0
+        Soft margin of robust losses (``least_squares``'s ``f_scale``).
+    max_nfev : int or None, default=None
+        Most evaluations of the residual vector (``least_squares``'s default when
+        ``None``).
+    n_steps : int, default=1
+        Time steps per row; built-in models read the newest step.
+    """
+
+    _parameter_constraints = {
+        "fixed": [tuple, list],
+        "bounds": [dict, None],
+        "objective": [StrOptions(set(OBJECTIVES))],
+        "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
+        "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
+        "jac": [StrOptions({"2-point", "3-point", "autograd"})],
+        "loss": [StrOptions({"linear", "soft_l1", "huber", "cauchy", "arctan"})],
+        "f_scale": [Interval(Real, 0, None, closed="neither")],
+        "max_nfev": [Interval(Integral, 1, None, closed="left"), None],
+        "n_steps": [Interval(Integral, 1, None, closed="left")],
+    }
+
+    # Set on the base class only: discovery skips it as an abstract base.
+    _is_abstract_base = True
+
+    def __init__(
+        self,
+        *,
+        fixed=(),
+        bounds=None,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        jac="2-point",
+        loss="linear",
+        f_scale=1.0,
+        max_nfev=None,
+        n_steps=1,
+    ):
+        self.fixed = fixed
+        self.bounds = bounds
+        self.objective = objective
+        self.ljung_box_lags = ljung_box_lags
+        self.ljung_box_weight = ljung_box_weight
+        self.jac = jac
+        self.loss = loss
+        self.f_scale = f_scale
+        self.max_nfev = max_nfev
+        self.n_steps = n_steps
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        return tags
+
+    # -- what subclasses provide -------------------------------------------------
+    def _initial_params(self, X, y):
+        raise NotImplementedError
+
+    def _equations(self, X, params, xp):
+        raise NotImplementedError
+
+    def _default_bounds(self):
+        return {}
+
+    def _check_layout(self, n_step_features, n_outputs):
+        """Raise a ValueError when the data shape does not fit the equations."""
+
+    # -- public API ----------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Fit the free parameters by least squares.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps (see :mod:`skhybrid.preprocessing`).
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Next states.
+
+        Returns
+        -------
+        self : object
+            The fitted model.
+        """
+        X, y = validate_data(
+            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        y2 = y if y.ndim == 2 else y[:, None]
+        self._y_1d = y.ndim == 1
+        self.n_outputs_ = y2.shape[1]
+        self._check_layout(step_width(X.shape[1], self.n_steps), self.n_outputs_)
+        init = self._initial_params(X, y2)
+        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        self._spec = spec
+        if self.objective != "mse" and self.ljung_box_lags >= X.shape[0]:
+            raise ValueError(
+                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
+                f"number of samples, {X.shape[0]}."
+            )
+
+        theta_hat, result = self._least_squares(X, y2, spec)
+        self.result_ = result
+        self.params_ = spec.to_dict(theta_hat)
+        self.params_std_, self.params_cov_ = self._standard_errors(
+            X, y2, spec, theta_hat
+        )
+        return self
+
+    def predict(self, X):
+        """Predict with the fitted parameters.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Float64 predictions, 1-D when ``y`` was 1-D in ``fit``.
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        y_pred = self.predict_with(X, self.params_)
+        return y_pred[:, 0] if self._y_1d else y_pred
+
+    def predict_with(self, X, params):
+        """Evaluate the equations with given parameters, in ``X``'s namespace.
+
+        Parameters
+        ----------
+        X : ndarray or torch.Tensor of shape (n_samples, n_features)
+            Already validated rows.
+        params : dict
+            Parameter name to value (floats, arrays or tensors).
+
+        Returns
+        -------
+        y_pred : ndarray or torch.Tensor of shape (n_samples, n_outputs)
+        """
+        xp = get_namespace(X)
+        y_pred = self._equations(X, params, xp)
+        if y_pred.ndim == 1:
+            y_pred = y_pred[:, None]
+        if y_pred.shape[1] != self.n_outputs_:
+            y_pred = xp.broadcast_to(y_pred, (y_pred.shape[0], self.n_outputs_))
+        return y_pred
+
+    @property
+    def free_params_(self):
+        """Names of the parameters that ``fit`` adjusted (not in ``fixed``)."""
+        check_is_fitted(self)
+        return list(self._spec.free)
+
+    # -- fitting internals ---------------------------------------------------------
+    def _resolved_bounds(self, init):
+        bounds = dict(self._default_bounds())
+        bounds.update(self.bounds or {})
+        return {k: v for k, v in bounds.items() if k in init or k not in bounds}
+
+    def _residual_vector(self, X, y, spec, xp):
+        """Function of the free-parameter vector giving the objective's residuals."""
+
+        def residuals(theta):
+            params = spec.to_dict(theta, xp=xp)
+            y_pred = self.predict_with(X, params)
+            return objective_residuals(
+                y - y_pred,
+                self.objective,
+                lags=self.ljung_box_lags,
+                ljung_box_weight=self.ljung_box_weight,
+            )
+
+        return residuals
+
+    def _autograd_jacobian(self, X, y, spec, objective_fn=True):
+        import torch
+
+        Xt = torch.as_tensor(X, dtype=torch.float64)
+        yt = torch.as_tensor(y, dtype=torch.float64)
+        xp = get_namespace(Xt)
+        if objective_fn:
+            fun = self._residual_vector(Xt, yt, spec, xp)
+        else:
+
+            def fun(theta):
+                params = spec.to_dict(theta, xp=xp)
+                return xp.reshape(yt - self.predict_with(Xt, params), (-1,))
+
+        def jac(theta):
+            t = torch.as_tensor(np.asarray(theta, dtype=np.float64))
+            return torch.func.jacrev(fun)(t).detach().numpy()
+
+        return jac
+
+    def _least_squares(self, X, y, spec):
+        if spec.n_free == 0:
+            return spec.x0, None
+        xp = get_namespace(X)
+        fun = self._residual_vector(X, y, spec, xp)
+        jac = self.jac
+        if jac == "autograd":
+            self._check_autograd()
+            jac = self._autograd_jacobian(X, y, spec)
+        kwargs = {}
+        if self.max_nfev is not None:
+            kwargs["max_nfev"] = self.max_nfev
+        result = least_squares(
+            fun,
+            spec.x0,
+            jac=jac,
+            bounds=(spec.lower, spec.upper),
+            loss=self.loss,
+            f_scale=self.f_scale,
+            x_scale="jac",
+            **kwargs,
+        )
+        if result.status == 0:
+            warnings.warn(
+                f"{type(self).__name__}: least_squares stopped after "
+                f"max_nfev={result.nfev} evaluations without converging; increase "
+                "max_nfev, start closer to the solution, or rescale X.",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+        elif not result.success:
+            warnings.warn(
+                f"{type(self).__name__}: least_squares failed: {result.message}",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+        return result.x, result
+
+    def _check_autograd(self):
+        """Hook: models whose equations cannot run on torch raise here."""
+
+    def _raw_jacobian(self, X, y, spec, theta):
+        """Plain residuals ``y - f(X; theta)`` (flattened) and their Jacobian."""
+        xp = get_namespace(X)
+
+        def raw(t):
+            return np.reshape(y - self.predict_with(X, spec.to_dict(t, xp=xp)), -1)
+
+        base = raw(theta)
+        if self.jac == "autograd":
+            return self._autograd_jacobian(X, y, spec, objective_fn=False)(theta), base
+        step = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(theta))
+        J = np.zeros((base.size, theta.size))
+        for j in range(theta.size):
+            # Central differences, stepping only inside the bounds.
+            up, down = theta.copy(), theta.copy()
+            hi = min(step[j], spec.upper[j] - theta[j])
+            lo = min(step[j], theta[j] - spec.lower[j])
+            if hi + lo > 0:
+                up[j] += hi
+                down[j] -= lo
+                J[:, j] = (raw(up) - raw(down)) / (hi + lo)
+        return J, base
+
+    def _standard_errors(self, X, y, spec, theta):
+        """Standard errors from the Gauss-Newton covariance ``s^2 (J^T J)^-1``.
+
+        ``J`` is the Jacobian of the plain residuals at the optimum and ``s^2`` the
+        residual variance with ``n_residuals - n_free`` degrees of freedom, whatever
+        the objective: the errors describe the parameters' sensitivity to the data.
+        """
+        if spec.n_free == 0:
+            cov = np.zeros((0, 0))
+        else:
+            J, r = self._raw_jacobian(X, y, spec, theta)
+            dof = r.size - spec.n_free
+            s2 = float(r @ r) / dof if dof > 0 else np.inf
+            cov = np.linalg.pinv(J.T @ J) * s2
+        std_free = np.sqrt(np.clip(np.diag(cov), 0, None))
+        return spec.to_dict(std_free, fixed_value=0.0), cov
+
+
+class _ParameterSpec:
+    """Named (possibly array-valued) parameters packed into one free vector."""
+
+    def __init__(self, init, fixed, bounds):
+        fixed = tuple(fixed)
+        names = list(init)
+        unknown = sorted(set(fixed) - set(names))
+        if unknown:
+            raise ValueError(
+                f"fixed names {unknown} that are not parameters; expected a subset "
+                f"of {names}."
+            )
+        unknown = sorted(set(bounds) - set(names))
+        if unknown:
+            raise ValueError(
+                f"bounds has keys {unknown} that are not parameters; expected a "
+                f"subset of {names}."
+            )
+        self.names = names
+        self.init = {k: np.asarray(v, dtype=float) for k, v in init.items()}
+        self.shapes = {k: v.shape for k, v in self.init.items()}
+        self.fixed = fixed
+        self.free = [k for k in names if k not in fixed]
+        lower, upper = [], []
+        for name in self.free:
+            lo, hi = self._bound(bounds, name)
+            value = self.init[name]
+            if np.any(value < lo) or np.any(value > hi):
+                raise ValueError(
+                    f"initial value of parameter {name!r} is {_fmt(value)}, outside "
+                    f"its bounds ({lo}, {hi}); change the initial value or bounds."
+                )
+            size = value.size
+            lower.append(np.full(size, lo, dtype=float))
+            upper.append(np.full(size, hi, dtype=float))
+        self.lower = np.concatenate(lower) if lower else np.zeros(0)
+        self.upper = np.concatenate(upper) if upper else np.zeros(0)
+        self.x0 = (
+            np.concatenate([self.init[k].ravel() for k in self.free])
+            if self.free
+            else np.zeros(0)
+        )
+        # Start strictly inside the bounds: least_squares requires it.
+        span = self.upper - self.lower
+        inside = np.isfinite(span) & (span > 0)
+        eps = 1e-10 * np.where(inside, span, 1.0)
+        self.x0 = np.clip(self.x0, self.lower + eps, self.upper - eps)
+        self.n_free = self.x0.size
+
+    @staticmethod
+    def _bound(bounds, name):
+        if name not in bounds:
+            return -np.inf, np.inf
+        pair = bounds[name]
+        try:
+            lo, hi = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"bounds[{name!r}] must be a pair (lower, upper); got {pair!r}."
+            ) from None
+        if not lo < hi:
+            raise ValueError(
+                f"bounds[{name!r}] = {pair!r} has lower >= upper; expected "
+                "lower < upper."
+            )
+        return lo, hi
+
+    def to_dict(self, theta, xp=None, fixed_value=None):
+        """Unpack a free vector into ``{name: value}``, fixed values included.
+
+        With ``xp`` (the namespace of ``theta`` or of the data), values are arrays of
+        that namespace; without it, floats (scalars) and NumPy arrays.
+        """
+        out, start = {}, 0
+        torch_theta = hasattr(theta, "detach")
+        for name in self.names:
+            shape = self.shapes[name]
+            if name in self.fixed:
+                value = (
+                    self.init[name]
+                    if fixed_value is None
+                    else np.full(shape, fixed_value)
+                )
+                if torch_theta:
+                    import torch
+
+                    value = torch.as_tensor(value, dtype=theta.dtype)
+                out[name] = value if (xp is not None or shape) else float(value)
+                continue
+            size = int(np.prod(shape)) if shape else 1
+            chunk = theta[start : start + size]
+            start += size
+            if shape:
+                out[name] = chunk.reshape(shape)
+            elif xp is not None or torch_theta:
+                out[name] = chunk[0]
+            else:
+                out[name] = float(chunk[0])
+        return out
+
+
+def _fmt(value):
+    return repr(float(value)) if np.ndim(value) == 0 else np.array2string(value)

@@ -1,0 +1,149 @@
+"""Training objectives of every stage: ``"mse"``, ``"ljung_box"``, ``"mse+ljung_box"``.
+
+Each objective is written two ways from the same pieces, so that a least-squares
+domain fit and a gradient-trained network minimise the same thing:
+
+- :func:`objective_residuals` returns a vector whose sum of squares is the objective
+  (what :func:`scipy.optimize.least_squares` takes);
+- :func:`objective_value` returns the objective itself (what a torch optimiser takes).
+
+With residuals ``r`` of shape ``(n, n_outputs)``:
+
+- ``"mse"``: ``mean(r ** 2)`` over all samples and outputs (Eq. 5 up to a factor);
+- ``"ljung_box"``: ``Q``, the Ljung-Box statistic summed over outputs (Eq. 7). It is
+  invariant to the offset and the scale of the residuals, so alone it does not pull a
+  model towards the data: use it after a stage that already fits, or combined;
+- ``"mse+ljung_box"``: ``mse + ljung_box_weight * Q / n``. ``Q / n`` is close to
+  ``sum_k rho_k ** 2``, a dimensionless number, so the weight trades squared error
+  (in the residual's units) for whiteness.
+
+Objectives with a Ljung-Box term need residuals in time order.
+"""
+
+from skhybrid.losses._ljung_box import ljung_box, weighted_autocorrelations
+from skhybrid.utils._array_api import get_namespace
+
+__all__ = [
+    "OBJECTIVES",
+    "check_objective",
+    "mse",
+    "needs_time_order",
+    "objective_residuals",
+    "objective_value",
+]
+
+OBJECTIVES = ("mse", "ljung_box", "mse+ljung_box")
+
+
+def check_objective(objective):
+    """Raise a ValueError unless ``objective`` is one of :data:`OBJECTIVES`."""
+    if objective not in OBJECTIVES:
+        raise ValueError(
+            f"objective must be one of {OBJECTIVES}; got objective={objective!r}."
+        )
+    return objective
+
+
+def needs_time_order(objective):
+    """Whether ``objective`` depends on the order of the rows (has a Ljung-Box term)."""
+    return "ljung_box" in check_objective(objective)
+
+
+def mse(residuals):
+    """Mean squared residual over all samples and outputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.losses import mse
+    >>> float(mse(np.array([[1.0, -1.0], [3.0, 1.0]])))
+    3.0
+    """
+    xp = get_namespace(residuals)
+    return xp.mean(residuals**2)
+
+
+def _as_2d(residuals):
+    return residuals if residuals.ndim == 2 else residuals[:, None]
+
+
+def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0):
+    """Vector whose sum of squares equals :func:`objective_value`.
+
+    Parameters
+    ----------
+    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+        Residuals ``y - y_pred`` in time order.
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        The objective (see the module docstring).
+    lags : int, default=20
+        Ljung-Box lags ``L``.
+    ljung_box_weight : float, default=1.0
+        Weight of ``Q / n`` in ``"mse+ljung_box"``.
+
+    Returns
+    -------
+    vector : 1-D ndarray or torch.Tensor
+        Scaled residuals (``r / sqrt(n * n_outputs)``) for the MSE part followed by
+        the weighted autocorrelations of each output for the Ljung-Box part.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.losses import objective_residuals, objective_value
+    >>> r = np.random.default_rng(0).standard_normal((50, 2))
+    >>> v = objective_residuals(r, "mse+ljung_box", lags=5, ljung_box_weight=0.5)
+    >>> bool(np.isclose((v ** 2).sum(), objective_value(r, "mse+ljung_box", lags=5,
+    ...                                                  ljung_box_weight=0.5)))
+    True
+    """
+    check_objective(objective)
+    xp = get_namespace(residuals)
+    r = _as_2d(residuals)
+    n = r.shape[0]
+    parts = []
+    if objective in ("mse", "mse+ljung_box"):
+        parts.append(xp.reshape(r, (-1,)) / (r.shape[0] * r.shape[1]) ** 0.5)
+    if objective == "ljung_box":
+        parts.append(xp.reshape(weighted_autocorrelations(r, lags), (-1,)))
+    elif objective == "mse+ljung_box":
+        q = xp.reshape(weighted_autocorrelations(r, lags), (-1,))
+        parts.append(q * (ljung_box_weight / n) ** 0.5)
+    return parts[0] if len(parts) == 1 else xp.concat(parts)
+
+
+def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0):
+    """Value of a training objective on residuals (a 0-d array or tensor).
+
+    Parameters
+    ----------
+    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+        Residuals ``y - y_pred`` in time order.
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        The objective (see the module docstring).
+    lags : int, default=20
+        Ljung-Box lags ``L``.
+    ljung_box_weight : float, default=1.0
+        Weight of ``Q / n`` in ``"mse+ljung_box"``.
+
+    Returns
+    -------
+    value : 0-d ndarray or torch.Tensor
+        Differentiable for torch input.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.losses import objective_value
+    >>> r = np.array([0.5, -0.5, 0.5, -0.5])
+    >>> float(objective_value(r, "mse"))
+    0.25
+    """
+    check_objective(objective)
+    r = _as_2d(residuals)
+    n = r.shape[0]
+    if objective == "mse":
+        return mse(r)
+    if objective == "ljung_box":
+        return ljung_box(r, lags)
+    return mse(r) + ljung_box_weight * ljung_box(r, lags) / n

@@ -1,0 +1,32 @@
+"""scikit-learn's common estimator checks over every public estimator of skhybrid.
+
+Estimators are discovered from the package (``skhybrid.utils.all_estimators``), so a
+new estimator cannot skip these checks; fast configurations live in
+``skhybrid.utils._testing.FAST_PARAMS``.
+"""
+
+import pytest
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from skhybrid.utils import all_estimators
+from skhybrid.utils._testing import expected_failed_checks, fast_instances
+
+
+def test_estimators_are_discovered():
+    names = {name for name, _ in all_estimators()}
+    assert {"LinearStateSpaceModel", "ParametricModel", "PendulumModel"} <= names
+    assert "DomainModel" not in names  # abstract base
+
+
+@parametrize_with_checks(
+    list(fast_instances()), expected_failed_checks=expected_failed_checks
+)
+def test_sklearn_compatible_estimator(estimator, check):
+    check(estimator)
+
+
+@pytest.mark.parametrize("name, cls", all_estimators())
+def test_estimator_docstring_has_examples(name, cls):
+    doc = cls.__doc__ or ""
+    for section in ("Parameters", "Attributes", "Examples"):
+        assert section in doc, f"{name}'s docstring lacks a {section} section"

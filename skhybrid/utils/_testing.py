@@ -67,7 +67,9 @@ EXPECTED_FAILED_CHECKS = {
         "check_regressors_no_decision_function": _PENDULUM_LAYOUT,
         "check_regressors_train": _PENDULUM_LAYOUT,
         "check_regressors_train(readonly_memmap=True)": _PENDULUM_LAYOUT,
-        "check_regressors_train(readonly_memmap=True,X_dtype=float32)": _PENDULUM_LAYOUT,
+        "check_regressors_train(readonly_memmap=True,X_dtype=float32)": (
+            _PENDULUM_LAYOUT
+        ),
         "check_supervised_y_2d": _PENDULUM_LAYOUT,
     },
 }

@@ -214,9 +214,9 @@ class DomainModel(RegressorMixin, BaseEstimator):
 
     # -- fitting internals ---------------------------------------------------------
     def _resolved_bounds(self, init):
-        bounds = dict(self._default_bounds())
+        bounds = {k: v for k, v in self._default_bounds().items() if k in init}
         bounds.update(self.bounds or {})
-        return {k: v for k, v in bounds.items() if k in init or k not in bounds}
+        return bounds
 
     def _residual_vector(self, X, y, spec, xp):
         """Function of the free-parameter vector giving the objective's residuals."""
@@ -249,7 +249,8 @@ class DomainModel(RegressorMixin, BaseEstimator):
 
         def jac(theta):
             t = torch.as_tensor(np.asarray(theta, dtype=np.float64))
-            return torch.func.jacrev(fun)(t).detach().numpy()
+            # Forward mode: one pass per parameter, far fewer than residuals.
+            return torch.func.jacfwd(fun)(t).detach().numpy()
 
         return jac
 

@@ -13,9 +13,11 @@ With residuals ``r`` of shape ``(n, n_outputs)``:
 - ``"ljung_box"``: ``Q``, the Ljung-Box statistic summed over outputs (Eq. 7). It is
   invariant to the offset and the scale of the residuals, so alone it does not pull a
   model towards the data: use it after a stage that already fits, or combined;
-- ``"mse+ljung_box"``: ``mse + ljung_box_weight * Q / n``. ``Q / n`` is close to
-  ``sum_k rho_k ** 2``, a dimensionless number, so the weight trades squared error
-  (in the residual's units) for whiteness.
+- ``"mse+ljung_box"``: ``mse + ljung_box_weight * mean_j(var_j * Q_j / n)``, with
+  ``var_j`` and ``Q_j`` the variance and the Ljung-Box statistic of output ``j``.
+  ``Q / n`` is close to ``sum_k rho_k ** 2``, the share of the residual variance that
+  its autocorrelation explains, so the second term is in the units of the first and
+  the weight means the same whatever the scale of the data.
 
 Objectives with a Ljung-Box term need residuals in time order.
 """
@@ -79,7 +81,7 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
     lags : int, default=20
         Ljung-Box lags ``L``.
     ljung_box_weight : float, default=1.0
-        Weight of ``Q / n`` in ``"mse+ljung_box"``.
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
 
     Returns
     -------
@@ -107,8 +109,9 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
     if objective == "ljung_box":
         parts.append(xp.reshape(weighted_autocorrelations(r, lags), (-1,)))
     elif objective == "mse+ljung_box":
-        q = xp.reshape(weighted_autocorrelations(r, lags), (-1,))
-        parts.append(q * (ljung_box_weight / n) ** 0.5)
+        scale = xp.sqrt(ljung_box_weight * _variance(r, xp) / (n * r.shape[1]))
+        q = weighted_autocorrelations(r, lags) * scale
+        parts.append(xp.reshape(q, (-1,)))
     return parts[0] if len(parts) == 1 else xp.concat(parts)
 
 
@@ -124,7 +127,7 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
     lags : int, default=20
         Ljung-Box lags ``L``.
     ljung_box_weight : float, default=1.0
-        Weight of ``Q / n`` in ``"mse+ljung_box"``.
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
 
     Returns
     -------
@@ -146,4 +149,11 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
         return mse(r)
     if objective == "ljung_box":
         return ljung_box(r, lags)
-    return mse(r) + ljung_box_weight * ljung_box(r, lags) / n
+    xp = get_namespace(residuals)
+    per_output = ljung_box(r, lags, reduction="none") * _variance(r, xp) / n
+    return mse(r) + ljung_box_weight * xp.mean(per_output)
+
+
+def _variance(r, xp):
+    """Per-column variance (1/n), shape (n_outputs,)."""
+    return xp.mean((r - xp.mean(r, axis=0)) ** 2, axis=0)

@@ -1,0 +1,160 @@
+"""The Ljung-Box statistic against statsmodels, its gradient and its invariants."""
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from statsmodels.stats.diagnostic import acorr_ljungbox
+
+from skhybrid.losses import (
+    autocorrelation,
+    ljung_box,
+    objective_residuals,
+    objective_value,
+    weighted_autocorrelations,
+)
+from skhybrid.losses._ljung_box import _fast_length
+
+
+def _statsmodels_q(x, lags):
+    return acorr_ljungbox(x, lags=lags)["lb_stat"].iloc[-1]
+
+
+def _ar1(rng, n, phi, n_outputs=None):
+    shape = (n,) if n_outputs is None else (n, n_outputs)
+    e = rng.standard_normal(shape)
+    x = np.empty_like(e)
+    x[0] = e[0]
+    for t in range(1, n):
+        x[t] = phi * x[t - 1] + e[t]
+    return x
+
+
+@pytest.mark.parametrize("lags", [1, 5, 20, 50])
+@pytest.mark.parametrize("kind", ["white", "ar1"])
+def test_equals_statsmodels_1d(rng, kind, lags):
+    x = rng.standard_normal(1000) if kind == "white" else _ar1(rng, 1000, 0.7)
+    expected = _statsmodels_q(x, lags)
+    np.testing.assert_allclose(ljung_box(x, lags), expected, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(
+        ljung_box(torch.from_numpy(x), lags).item(), expected, rtol=1e-9, atol=0
+    )
+
+
+def test_equals_statsmodels_multi_output(rng):
+    x = np.column_stack(
+        [rng.standard_normal(777), _ar1(rng, 777, 0.5), _ar1(rng, 777, -0.3)]
+    )
+    expected = np.array([_statsmodels_q(x[:, j], 15) for j in range(3)])
+    per_output = ljung_box(x, 15, reduction="none")
+    assert per_output.shape == (3,)
+    np.testing.assert_allclose(per_output, expected, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(ljung_box(x, 15), expected.sum(), rtol=1e-9, atol=0)
+    torch_per_output = ljung_box(torch.from_numpy(x), 15, reduction="none")
+    np.testing.assert_allclose(torch_per_output.numpy(), expected, rtol=1e-9, atol=0)
+
+
+def test_autocorrelation_matches_statsmodels_acf(rng):
+    from statsmodels.tsa.stattools import acf
+
+    x = _ar1(rng, 500, 0.8)
+    np.testing.assert_allclose(autocorrelation(x, 30), acf(x, nlags=30), rtol=1e-9)
+
+
+def test_weighted_autocorrelations_square_sum_to_statistic(rng):
+    x = rng.standard_normal((300, 2))
+    q = weighted_autocorrelations(x, lags=7)
+    assert q.shape == (7, 2)
+    np.testing.assert_allclose((q**2).sum(), ljung_box(x, 7), rtol=1e-12)
+
+
+def test_gradcheck_float64(rng):
+    x = torch.tensor(rng.standard_normal((40, 2)), requires_grad=True)
+    assert torch.autograd.gradcheck(lambda t: ljung_box(t, lags=6), (x,))
+    assert torch.autograd.gradcheck(
+        lambda t: objective_value(t, "mse+ljung_box", lags=6, ljung_box_weight=2.0),
+        (x,),
+    )
+
+
+def test_gradient_descent_whitens(rng):
+    """Following the gradient lowers the statistic (the loss is usable)."""
+    x = torch.tensor(_ar1(rng, 400, 0.8), requires_grad=True)
+    before = ljung_box(x, 10).item()
+    opt = torch.optim.SGD([x], lr=1.0)
+    for _ in range(20):
+        opt.zero_grad()
+        ljung_box(x, 10).backward()
+        opt.step()
+    assert ljung_box(x, 10).item() < 0.5 * before
+
+
+def test_constant_series_is_zero_not_nan():
+    assert ljung_box(np.zeros(50), 5) == 0.0
+    t = torch.zeros(50, requires_grad=True)
+    value = ljung_box(t, 5)
+    value.backward()
+    assert value.item() == 0.0
+    assert torch.isfinite(t.grad).all()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"lags": 0}, "lags must be a positive integer; got lags=0"),
+        ({"lags": 2.5}, "lags=2.5"),
+        ({"lags": 100}, "lags=100 with n_samples=50"),
+        ({"reduction": "mean"}, "reduction='mean'"),
+    ],
+)
+def test_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ljung_box(np.ones(50), **{"lags": 5, **kwargs})
+
+
+def test_bad_shape():
+    with pytest.raises(ValueError, match=r"shape \(2, 3, 4\)"):
+        ljung_box(np.ones((2, 3, 4)), 1)
+
+
+def test_objective_residuals_square_sum_to_value(rng):
+    r = rng.standard_normal((120, 3))
+    for objective in ("mse", "ljung_box", "mse+ljung_box"):
+        v = objective_residuals(r, objective, lags=9, ljung_box_weight=0.3)
+        np.testing.assert_allclose(
+            (v**2).sum(),
+            objective_value(r, objective, lags=9, ljung_box_weight=0.3),
+            rtol=1e-12,
+        )
+    with pytest.raises(ValueError, match="objective='l2'"):
+        objective_value(r, "l2")
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 97, 1000, 1025, 4097])
+def test_fast_length_is_smooth_and_not_shorter(n):
+    m = _fast_length(n)
+    assert n <= m <= 2 * n
+    for p in (2, 3, 5):
+        while m % p == 0:
+            m //= p
+    assert m == 1
+
+
+series = arrays(
+    np.float64,
+    st.integers(12, 200),
+    elements=st.floats(-1e3, 1e3, allow_nan=False, width=64),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(x=series, scale=st.floats(1e-3, 1e3), shift=st.floats(-1e3, 1e3))
+def test_properties_nonnegative_and_invariant(x, scale, shift):
+    lags = min(10, x.shape[0] - 1)
+    q = ljung_box(x, lags)
+    assert q >= 0
+    if np.ptp(x) > 1e-6 * max(1.0, np.abs(x).max()):
+        np.testing.assert_allclose(ljung_box(x * scale, lags), q, rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(ljung_box(x + shift, lags), q, rtol=1e-5, atol=1e-7)

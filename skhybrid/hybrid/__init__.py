@@ -1,0 +1,24 @@
+"""Hybrid compositions of domain and neural models, and noise models.
+
+The decomposition ``Y = f(X; theta) + NN(X; W) + N(phi)`` of the method paper:
+
+- :class:`HybridBoostingRegressor`: the sequential (boosting) composition, each
+  stage fitted to what the earlier stages left, with per-stage validation scores,
+  ``decompose``, residual whiteness after each stage, a noise model, and the cyclic
+  composition through a :class:`~skhybrid.neural.CyclicRegressor` stage;
+- :class:`HybridEnsembleRegressor`: the parallel composition, physics parameters and
+  network weights trained jointly in torch;
+- :class:`GaussianNoise` and :class:`AutoRegressiveNoise`: the stochastic term.
+"""
+
+from skhybrid.hybrid._boosting import HybridBoostingRegressor, StageWhiteness
+from skhybrid.hybrid._ensemble import HybridEnsembleRegressor
+from skhybrid.hybrid._noise import AutoRegressiveNoise, GaussianNoise
+
+__all__ = [
+    "AutoRegressiveNoise",
+    "GaussianNoise",
+    "HybridBoostingRegressor",
+    "HybridEnsembleRegressor",
+    "StageWhiteness",
+]

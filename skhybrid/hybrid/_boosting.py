@@ -1,0 +1,737 @@
+"""HybridBoostingRegressor: the sequential hybrid (the paper's section 3.1)."""
+
+import warnings
+from dataclasses import dataclass
+from numbers import Integral, Real
+
+import numpy as np
+from sklearn.base import RegressorMixin, clone
+from sklearn.utils import Bunch, check_random_state, get_tags
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.exceptions import NonWhiteResidualWarning
+from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
+from skhybrid.preprocessing import split_steps, step_width
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    StrOptions,
+    _BaseComposition,
+    _fit_context,
+    validate_data,
+)
+
+__all__ = ["HybridBoostingRegressor", "StageWhiteness"]
+
+STAGE_INPUTS = ("window", "window+prediction", "window+prediction+residuals")
+_RESERVED_NAMES = ("stage_names", "total")
+
+
+@dataclass(frozen=True)
+class StageWhiteness:
+    """Ljung-Box test of the training residual after each stage, per output.
+
+    Computed with :func:`statsmodels.stats.diagnostic.acorr_ljungbox` at the single
+    lag ``lags``, on the residual of every training row (validation slice included)
+    in the order given to ``fit``.
+
+    Attributes
+    ----------
+    stage_names : tuple of str
+        Names of the kept stages, in order; row ``i`` of ``statistic`` and
+        ``pvalue`` is the residual after stages ``0..i``.
+    lags : int
+        Lag of the test (``ljung_box_lags``, at most ``n_samples - 1``).
+    statistic : ndarray of shape (n_stages, n_outputs)
+        Ljung-Box ``Q`` statistic.
+    pvalue : ndarray of shape (n_stages, n_outputs)
+        p-value of ``Q`` under the null hypothesis of white residuals; a small
+        value means the stage left predictable structure.
+    """
+
+    stage_names: tuple
+    lags: int
+    statistic: np.ndarray
+    pvalue: np.ndarray
+
+
+class HybridBoostingRegressor(RegressorMixin, _BaseComposition):
+    """Sequential hybrid model: each stage is fitted to what the earlier stages left.
+
+    The paper's boosting composition ``Y = f(X; theta) + NN(X; W) + N(phi)``: a
+    domain (physics) stage first, then one or more neural stages, each a clone of
+    its estimator fitted to the residual ``y - (stage_0 + ... + stage_{t-1})`` with
+    that estimator's own objective (``"mse"``, ``"ljung_box"``, ...), and finally an
+    optional noise model fitted to the final residual. The prediction is the sum of
+    the stages' predictions; :meth:`decompose` returns the parts.
+
+    **Stage input.** The first stage sees the rows ``X`` as given. A later stage
+    sees, per ``stage_input``:
+
+    - ``"window"``: ``X`` alone;
+    - ``"window+prediction"``: ``X`` plus the earlier stages' prediction;
+    - ``"window+prediction+residuals"``: also the earlier stages' residuals on the
+      older steps of the window (the paper's ``r(t)`` input).
+
+    The extra columns are appended *per time step*, so a row of a later stage is
+    still ``n_steps`` equally wide steps, oldest first, and an
+    :class:`~skhybrid.neural.RNNRegressor` with the same ``n_steps`` reshapes it
+    cleanly. Step ``p`` of the augmented row is
+    ``[step_p of X (w columns), pred_p (s columns), res_p (s columns)]`` with ``s``
+    the number of outputs (the state width) and ``res_p`` present only for
+    ``"window+prediction+residuals"`` with ``n_steps > 1``:
+
+    - ``pred_p`` is the earlier stages' prediction of the state after step ``p``,
+      made on the sub-window ending at step ``p``. For the newest step this is their
+      prediction for the row itself;
+    - ``res_p`` is the known state of step ``p + 1`` (the first ``s`` columns of
+      step ``p + 1`` of the row) minus ``pred_p``; it is 0 for the newest step,
+      whose next state is the unknown target.
+
+    A sub-window ending at an older step ``p`` lacks ``n_steps - 1 - p`` steps
+    before the row; they are filled with copies of the oldest step, and their own
+    prediction and residual slots are 0. Stages that read only the newest step
+    (the built-in domain models) therefore predict older steps exactly; a stage
+    that reads the whole window sees the padded copies. Everything is computed from
+    the row itself, so predictions never depend on the order of the rows. With
+    ``n_steps=1`` there are no older steps and the residual slots are left out.
+
+    **Validation and unhelpful stages.** The last ``validation_fraction`` of the
+    rows (the end of the time-ordered training data) is held out: stages are fitted
+    on the rows before it, and ``stage_scores_`` holds the validation RMSE after
+    each stage. A neural stage on top of an already correct physics model can make
+    things worse; with ``drop_unhelpful_stages=True`` a stage whose validation RMSE
+    is not lower than before it is dropped (the first stage is always kept), and
+    later stages are fitted without it. Off by default, so that the stages you ask
+    for are the stages you get; read ``stage_scores_`` either way.
+
+    **Noise model.** ``noise_model`` fits the ``N(phi)`` term on the final residual
+    of all training rows in the order given (validation slice included):
+    ``"gaussian"`` (mean and covariance across outputs) or ``"ar"`` (one
+    autoregressive process per output, order chosen by BIC, statsmodels). It gives
+    :meth:`predict` a ``return_std`` and enables :meth:`sample`.
+
+    **Cyclic method.** A :class:`~skhybrid.neural.CyclicRegressor` stage (an
+    encoder trained with a decoder that reconstructs its input) makes this the
+    paper's cyclic composition; :meth:`inverse_predict` exposes its decoder as an
+    inverse model.
+
+    Parameters
+    ----------
+    stages : list of (str, estimator) tuples
+        The stages in order, like a Pipeline's steps. Parameters of a stage are
+        reached as ``<name>__<parameter>`` (``set_params(rnn__hidden_size=32)``,
+        ``GridSearchCV`` over ``rnn__objective``). A name must not contain ``__``
+        nor be ``"stage_names"`` or ``"total"``.
+    stage_input : {"window", "window+prediction", "window+prediction+residuals"}, \
+            default="window+prediction+residuals"
+        Input of the stages after the first (see above).
+    n_steps : int, default=1
+        Time steps per row of ``X``. A stage with its own ``n_steps`` parameter
+        must use the same value.
+    validation_fraction : float or None, default=0.1
+        Fraction of the rows, taken from the end, held out to score the stages.
+        ``None`` fits on every row and scores on the training rows.
+    drop_unhelpful_stages : bool, default=False
+        Drop a stage whose validation RMSE is not lower than the RMSE before it.
+    noise_model : {"gaussian", "ar"} or None, default=None
+        Stochastic model of the final residual.
+    noise_max_lag : int, default=10
+        Largest lag the ``"ar"`` noise model considers.
+    ljung_box_lags : int, default=20
+        Lag of the Ljung-Box test in ``residual_whiteness_`` (at most
+        ``n_samples - 1``).
+    random_state : int, RandomState instance or None, default=None
+        Seeds the stages whose ``random_state`` is ``None`` (one seed per stage),
+        so the whole fit is repeatable; stages with their own ``random_state``
+        keep it. Also the default seed of :meth:`sample`.
+
+    Attributes
+    ----------
+    stages_ : list of (str, estimator) tuples
+        The fitted stages that were kept, in order.
+    dropped_stages_ : list of str
+        Names of the stages dropped by ``drop_unhelpful_stages``.
+    stage_scores_ : ndarray of shape (n_stages,)
+        Validation RMSE (over all outputs) after each stage of ``stages``, dropped
+        ones included (the score they reached when tried).
+    baseline_score_ : float
+        Validation RMSE of predicting zero, the reference of the first stage.
+    residual_whiteness_ : StageWhiteness
+        Ljung-Box statistic and p-value of the training residual after each kept
+        stage, per output.
+    noise_model_ : GaussianNoise, AutoRegressiveNoise or None
+        The fitted noise model.
+    n_features_in_ : int
+        Number of columns of ``X``.
+    n_outputs_ : int
+        Number of outputs.
+
+    See Also
+    --------
+    HybridEnsembleRegressor : the parallel composition, trained jointly.
+    skhybrid.domain.DomainModel : physics stages.
+
+    Notes
+    -----
+    Stages with a Ljung-Box objective assume the training rows are in time order
+    (one episode, or episodes one after the other); so do ``validation_fraction``,
+    ``residual_whiteness_`` and the ``"ar"`` noise model.
+
+    Examples
+    --------
+    A linear physics stage, then a small network on what it leaves:
+
+    >>> import numpy as np
+    >>> from skhybrid.domain import LinearStateSpaceModel
+    >>> from skhybrid.hybrid import HybridBoostingRegressor
+    >>> from skhybrid.neural import CyclicRegressor, DenseRegressor
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.uniform(-1, 1, size=(400, 2))          # [x(t), u(t)]
+    >>> y = 0.9 * X[:, 0] + 0.5 * X[:, 1] + 0.3 * np.sin(3 * X[:, 0])
+    >>> booster = HybridBoostingRegressor(
+    ...     [("physics", LinearStateSpaceModel()),
+    ...      ("nn", DenseRegressor(hidden_layer_sizes=(16,), max_epochs=40,
+    ...                            random_state=0))],
+    ...     noise_model="gaussian",
+    ... ).fit(X, y)
+    >>> parts = booster.decompose(X[:3])
+    >>> parts.stage_names
+    ['physics', 'nn']
+    >>> bool(np.allclose(parts.physics + parts.nn, booster.predict(X[:3])))
+    True
+    >>> bool(booster.stage_scores_[1] < booster.stage_scores_[0])
+    True
+    >>> mean, std = booster.predict(X[:3], return_std=True)
+    >>> std.shape
+    (3,)
+
+    The cyclic composition: a :class:`~skhybrid.neural.CyclicRegressor` stage,
+    whose decoder :meth:`inverse_predict` exposes as an inverse model:
+
+    >>> cyclic = HybridBoostingRegressor(
+    ...     [("physics", LinearStateSpaceModel()),
+    ...      ("cyclic", CyclicRegressor(hidden_layer_sizes=(16,), max_epochs=20,
+    ...                                 random_state=0))],
+    ...     stage_input="window",
+    ... ).fit(X, y)
+    >>> part = cyclic.decompose(X[:3]).cyclic
+    >>> cyclic.inverse_predict(part).shape       # reconstructed windows
+    (3, 2)
+    """
+
+    _parameter_constraints = {
+        "stages": [list],
+        "stage_input": [StrOptions(set(STAGE_INPUTS))],
+        "n_steps": [Interval(Integral, 1, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="neither"), None],
+        "drop_unhelpful_stages": ["boolean"],
+        "noise_model": [StrOptions(set(NOISE_MODELS)), None],
+        "noise_max_lag": [Interval(Integral, 1, None, closed="left")],
+        "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
+        "random_state": ["random_state"],
+    }
+
+    def __init__(
+        self,
+        stages,
+        *,
+        stage_input="window+prediction+residuals",
+        n_steps=1,
+        validation_fraction=0.1,
+        drop_unhelpful_stages=False,
+        noise_model=None,
+        noise_max_lag=10,
+        ljung_box_lags=20,
+        random_state=None,
+    ):
+        self.stages = stages
+        self.stage_input = stage_input
+        self.n_steps = n_steps
+        self.validation_fraction = validation_fraction
+        self.drop_unhelpful_stages = drop_unhelpful_stages
+        self.noise_model = noise_model
+        self.noise_max_lag = noise_max_lag
+        self.ljung_box_lags = ljung_box_lags
+        self.random_state = random_state
+
+    # -- parameters of the stages --------------------------------------------------
+    def get_params(self, deep=True):
+        """Parameters of the booster and, with ``deep``, of its stages.
+
+        Parameters
+        ----------
+        deep : bool, default=True
+            Also return ``<stage>__<parameter>`` entries.
+
+        Returns
+        -------
+        params : dict
+            Parameter names mapped to their values.
+        """
+        return self._get_params("stages", deep=deep)
+
+    def set_params(self, **params):
+        """Set parameters of the booster or of its stages (``<stage>__<param>``).
+
+        Parameters
+        ----------
+        **params : dict
+            Booster parameters, whole stages by name, or stage parameters.
+
+        Returns
+        -------
+        self : HybridBoostingRegressor
+            This estimator.
+        """
+        self._set_params("stages", **params)
+        return self
+
+    @property
+    def named_stages(self):
+        """The (unfitted) stages as a :class:`~sklearn.utils.Bunch` by name."""
+        return Bunch(**dict(self.stages))
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.regressor_tags.poor_score = False
+        try:
+            stage_tags = [get_tags(est) for _, est in self.stages]
+        except (TypeError, ValueError, AttributeError):
+            return tags
+        tags.target_tags.multi_output = all(
+            t.target_tags.multi_output for t in stage_tags
+        )
+        tags.regressor_tags.poor_score = any(
+            t.regressor_tags is not None and t.regressor_tags.poor_score
+            for t in stage_tags
+        )
+        return tags
+
+    # -- validation ----------------------------------------------------------------
+    def _check_stages(self):
+        if not self.stages:
+            raise ValueError(
+                f"stages must hold at least one (name, estimator) pair; got "
+                f"stages={self.stages!r}."
+            )
+        try:
+            names, estimators = zip(*self.stages, strict=True)
+        except (TypeError, ValueError):
+            raise TypeError(
+                "stages must be a list of (name, estimator) pairs; got "
+                f"stages={self.stages!r}."
+            ) from None
+        for name in names:
+            if not isinstance(name, str):
+                raise TypeError(f"stage names must be strings; got {name!r} in stages.")
+            if name in _RESERVED_NAMES:
+                raise ValueError(
+                    f"stage name {name!r} is reserved (decompose returns "
+                    f"{list(_RESERVED_NAMES)}); rename the stage."
+                )
+        self._validate_names(names)
+        self._check_estimators_are_instances(estimators)
+        for name, est in self.stages:
+            if not (hasattr(est, "fit") and hasattr(est, "predict")):
+                raise TypeError(
+                    f"stage {name!r} must be an estimator with fit and predict; got "
+                    f"{est!r}."
+                )
+            stage_steps = est.get_params(deep=False).get("n_steps", self.n_steps)
+            if stage_steps != self.n_steps:
+                raise ValueError(
+                    f"stage {name!r} has n_steps={stage_steps} but the booster has "
+                    f"n_steps={self.n_steps}; every stage must read windows of the "
+                    f"same length: set {name}__n_steps={self.n_steps} or change "
+                    "n_steps."
+                )
+
+    def _split(self, n):
+        if self.validation_fraction is None:
+            if n < 1:
+                raise ValueError(f"got n_samples={n}; need at least 1 sample.")
+            return np.arange(n), np.arange(n)
+        n_val = int(np.ceil(self.validation_fraction * n))
+        n_train = n - n_val
+        if n_train < 1:
+            raise ValueError(
+                f"validation_fraction={self.validation_fraction} leaves no training "
+                f"rows with n_samples={n}; pass more rows or validation_fraction="
+                "None."
+            )
+        return np.arange(n_train), np.arange(n_train, n)
+
+    # -- stage inputs --------------------------------------------------------------
+    def _windows(self, X):
+        """Windows ending at each step of the row, oldest first (see class doc)."""
+        if self.stage_input == "window" or self.n_steps == 1:
+            return [X]
+        steps = split_steps(X, self.n_steps)
+        n = self.n_steps
+        out = []
+        for k in range(n):
+            idx = np.concatenate([np.zeros(n - 1 - k, dtype=int), np.arange(k + 1)])
+            out.append(steps[:, idx, :].reshape(X.shape[0], -1))
+        return out
+
+    def _augment(self, windows, preds, k):
+        """Stage input built from window ``k`` and the earlier predictions."""
+        W = windows[k]
+        if self.stage_input == "window":
+            return W
+        n, s = self.n_steps, self.n_outputs_
+        with_res = self.stage_input == "window+prediction+residuals" and n > 1
+        steps = split_steps(W, n)
+        rows, w = W.shape[0], steps.shape[2]
+        width = w + s + (s if with_res else 0)
+        out = np.zeros((rows, n, width))
+        out[:, :, :w] = steps
+        pad = n - 1 - k
+        for p in range(pad, n):
+            m = p - pad  # source step of position p: the window ending there is W_m
+            out[:, p, w : w + s] = preds[m]
+            if with_res and p < n - 1:
+                out[:, p, w + s :] = steps[:, p + 1, :s] - preds[m]
+        return out.reshape(rows, n * width)
+
+    def _stage_predict(self, est, Z):
+        pred = np.asarray(est.predict(Z), dtype=np.float64)
+        return pred.reshape(Z.shape[0], self.n_outputs_)
+
+    def _run_stages(self, X):
+        """Yield ``(name, stage_input, part)`` for every kept stage on raw rows."""
+        windows = self._windows(X)
+        preds = [np.zeros((X.shape[0], self.n_outputs_)) for _ in windows]
+        for (name, est), augmented in zip(self.stages_, self._augmented_, strict=True):
+            inputs = [
+                self._augment(windows, preds, k) if augmented else windows[k]
+                for k in range(len(windows))
+            ]
+            parts = [self._stage_predict(est, Z) for Z in inputs]
+            yield name, inputs[-1], parts[-1]
+            preds = [p + q for p, q in zip(preds, parts, strict=True)]
+
+    # -- fit -----------------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=False)
+    def fit(self, X, y):
+        """Fit the stages one after the other, then the noise model.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps, in time order when a stage, the
+            validation slice or the noise model needs it.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Next states.
+
+        Returns
+        -------
+        self : HybridBoostingRegressor
+            The fitted booster.
+        """
+        self._check_stages()
+        X, y = validate_data(
+            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        self._y_1d = y.ndim == 1
+        Y = y[:, None] if self._y_1d else y
+        self.n_outputs_ = Y.shape[1]
+        w = step_width(X.shape[1], self.n_steps)
+        if (
+            self.stage_input == "window+prediction+residuals"
+            and self.n_steps > 1
+            and w < self.n_outputs_
+        ):
+            raise ValueError(
+                f"stage_input={self.stage_input!r} reads the state of each step from "
+                f"its first {self.n_outputs_} columns (one per output), but a step "
+                f"of X has {w} columns (n_steps={self.n_steps})."
+            )
+        train, val = self._split(X.shape[0])
+        rng = check_random_state(self.random_state)
+
+        windows = self._windows(X)
+        preds = [np.zeros_like(Y) for _ in windows]
+        self.stages_, self._augmented_, self.dropped_stages_ = [], [], []
+        scores = []
+        self.baseline_score_ = previous = _rmse(Y[val])
+        whiteness_rows, residual = [], Y
+        for name, template in self.stages:
+            est = clone(template)
+            _seed_stage(est, rng, self.random_state is not None)
+            augmented = bool(self.stages_) and self.stage_input != "window"
+            inputs = [
+                self._augment(windows, preds, k) if augmented else windows[k]
+                for k in range(len(windows))
+            ]
+            target = Y - preds[-1]
+            est.fit(
+                inputs[-1][train], target[train][:, 0] if self._y_1d else target[train]
+            )
+            parts = [self._stage_predict(est, Z) for Z in inputs]
+            new_pred = preds[-1] + parts[-1]
+            score = _rmse(Y[val] - new_pred[val])
+            scores.append(score)
+            if self.drop_unhelpful_stages and self.stages_ and not score < previous:
+                self.dropped_stages_.append(name)
+                continue
+            previous = score
+            self.stages_.append((name, est))
+            self._augmented_.append(augmented)
+            preds = [p + q for p, q in zip(preds, parts, strict=True)]
+            residual = Y - preds[-1]
+            whiteness_rows.append(residual)
+        self.stage_scores_ = np.asarray(scores)
+        self.residual_whiteness_ = _whiteness(
+            [n for n, _ in self.stages_], whiteness_rows, self.ljung_box_lags
+        )
+        self.noise_model_ = make_noise_model(
+            self.noise_model, max_lag=self.noise_max_lag
+        )
+        if self.noise_model_ is not None:
+            self.noise_model_.fit(residual)
+            if self.noise_model == "gaussian":
+                _warn_if_not_white(self.residual_whiteness_)
+        return self
+
+    # -- predictions ---------------------------------------------------------------
+    def _validate_X(self, X):
+        check_is_fitted(self)
+        return validate_data(self, X, reset=False, dtype=np.float64)
+
+    def _shape(self, Y):
+        return Y[:, 0] if self._y_1d else Y
+
+    def staged_predict(self, X):
+        """Prediction after each kept stage, as a generator.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+
+        Yields
+        ------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Sum of the stages so far.
+        """
+        X = self._validate_X(X)
+        total = np.zeros((X.shape[0], self.n_outputs_))
+        for _, _, part in self._run_stages(X):
+            total = total + part
+            yield self._shape(total)
+
+    def decompose(self, X):
+        """The additive part of each stage, and their sum.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+
+        Returns
+        -------
+        parts : :class:`~sklearn.utils.Bunch`
+            ``stage_names`` (list of the kept stages' names, in order), one key per
+            stage name holding that stage's part (an array shaped like
+            :meth:`predict`'s output) and ``total``, their sum, which is what
+            :meth:`predict` returns.
+        """
+        X = self._validate_X(X)
+        parts = Bunch(stage_names=[])
+        total = np.zeros((X.shape[0], self.n_outputs_))
+        for name, _, part in self._run_stages(X):
+            parts.stage_names.append(name)
+            parts[name] = self._shape(part)
+            total = total + part
+        parts["total"] = self._shape(total)
+        return parts
+
+    def predict(self, X, return_std=False):
+        """Sum of the stages' predictions, optionally with the noise model's std.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+        return_std : bool, default=False
+            Also return the standard deviation of the noise model (the stationary
+            standard deviation for ``"ar"``), the same for every row. Needs a
+            ``noise_model``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Deterministic prediction (the noise model's mean is not added; it is
+            close to 0 when a stage fits an offset).
+        y_std : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Only with ``return_std=True``.
+        """
+        y_pred = self.decompose(X).total
+        if not return_std:
+            return y_pred
+        noise = self._check_noise("predict(return_std=True)")
+        std = np.broadcast_to(noise.std(), (y_pred.shape[0], self.n_outputs_))
+        return y_pred, self._shape(np.array(std))
+
+    def sample(self, X, random_state=None):
+        """Draw outputs with noise: the prediction plus a draw of the noise model.
+
+        For ``noise_model="ar"`` the noise is one realisation of each output's
+        autoregressive process simulated along the rows in the order given (treat
+        ``X`` as consecutive time steps); for ``"gaussian"`` the rows' noise is
+        independent.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+        random_state : int, RandomState instance or None, default=None
+            Seed of the draw; ``None`` uses the booster's ``random_state``.
+
+        Returns
+        -------
+        y_sample : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Prediction plus noise.
+        """
+        noise = self._check_noise("sample")
+        y_pred = self.decompose(X).total
+        seed = self.random_state if random_state is None else random_state
+        draw = noise.sample(y_pred.shape[0], random_state=seed)
+        Y = (y_pred[:, None] if self._y_1d else y_pred) + draw
+        return self._shape(Y)
+
+    def _check_noise(self, what):
+        check_is_fitted(self)
+        if self.noise_model_ is None:
+            raise ValueError(
+                f"{what} needs a noise model but noise_model=None; set noise_model="
+                "'gaussian' or 'ar' and refit."
+            )
+        return self.noise_model_
+
+    def inverse_predict(self, y, stage=None):
+        """Invert a cyclic stage: its decoder's reconstruction of the input window.
+
+        Delegates to the ``inverse_predict`` of a stage that has one (a
+        :class:`~skhybrid.neural.CyclicRegressor`). ``y`` is that stage's output:
+        the target itself when the cyclic stage comes first, else its additive part
+        (``decompose(X)[stage]``, the part of ``y`` the earlier stages left). The
+        columns this booster appended to the stage's input (see the class
+        docstring) are removed, so the result is laid out like ``X``.
+
+        Parameters
+        ----------
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Outputs of the cyclic stage.
+        stage : str or None, default=None
+            Name of the stage to invert; ``None`` takes the only stage with
+            ``inverse_predict``.
+
+        Returns
+        -------
+        X_rec : ndarray of shape (n_samples, n_features)
+            Reconstructed rows.
+        """
+        check_is_fitted(self)
+        invertible = [
+            (i, name)
+            for i, (name, est) in enumerate(self.stages_)
+            if hasattr(est, "inverse_predict")
+        ]
+        if stage is not None:
+            chosen = [(i, name) for i, name in invertible if name == stage]
+            if not chosen:
+                raise ValueError(
+                    f"stage={stage!r} is not a fitted stage with inverse_predict; "
+                    f"such stages: {[name for _, name in invertible]}."
+                )
+        elif len(invertible) != 1:
+            raise ValueError(
+                "inverse_predict needs exactly one stage with an inverse_predict "
+                f"method (a CyclicRegressor), or stage=<name>; found "
+                f"{[name for _, name in invertible]}."
+            )
+        else:
+            chosen = invertible
+        i, _ = chosen[0]
+        X_rec = np.asarray(self.stages_[i][1].inverse_predict(y), dtype=np.float64)
+        if self._augmented_[i]:
+            w = self.n_features_in_ // self.n_steps
+            X_rec = split_steps(X_rec, self.n_steps)[:, :, :w]
+            X_rec = X_rec.reshape(X_rec.shape[0], -1)
+        return X_rec
+
+    # -- convenience ---------------------------------------------------------------
+    def _domain_stage(self):
+        from skhybrid.domain import DomainModel
+
+        check_is_fitted(self)
+        for _, est in self.stages_:
+            if isinstance(est, DomainModel):
+                return est
+        raise AttributeError(
+            "this booster has no fitted DomainModel stage; read the parameters of "
+            "a stage from stages_ instead."
+        )
+
+    @property
+    def domain_params_(self):
+        """``params_`` of the first fitted domain-model stage."""
+        return self._domain_stage().params_
+
+    @property
+    def domain_params_std_(self):
+        """``params_std_`` of the first fitted domain-model stage."""
+        return self._domain_stage().params_std_
+
+
+def _rmse(r):
+    return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
+
+
+def _seed_stage(est, rng, active):
+    """Give every unset ``random_state`` of a stage its own seed from ``rng``."""
+    seeds = {}
+    for key, value in sorted(est.get_params(deep=True).items()):
+        if key == "random_state" or key.endswith("__random_state"):
+            seed = int(rng.randint(np.iinfo(np.int32).max))
+            if active and value is None:
+                seeds[key] = seed
+    if seeds:
+        est.set_params(**seeds)
+
+
+def _whiteness(names, residuals, lags):
+    from statsmodels.stats.diagnostic import acorr_ljungbox
+
+    n_outputs = residuals[0].shape[1] if residuals else 0
+    n = residuals[0].shape[0] if residuals else 0
+    lags = int(min(lags, n - 1))
+    stat = np.full((len(residuals), n_outputs), np.nan)
+    pval = np.full((len(residuals), n_outputs), np.nan)
+    if lags >= 1:
+        for i, r in enumerate(residuals):
+            for k in range(n_outputs):
+                if np.ptp(r[:, k]) == 0:
+                    continue  # a constant residual has no autocorrelation to test
+                with np.errstate(all="ignore"):
+                    table = acorr_ljungbox(r[:, k], lags=[lags])
+                stat[i, k] = float(table["lb_stat"].iloc[0])
+                pval[i, k] = float(table["lb_pvalue"].iloc[0])
+    return StageWhiteness(tuple(names), max(lags, 0), stat, pval)
+
+
+def _warn_if_not_white(whiteness, alpha=0.01):
+    pvalue = whiteness.pvalue[-1]
+    bad = np.flatnonzero(pvalue < alpha)
+    if bad.size:
+        warnings.warn(
+            f"the final residual of outputs {bad.tolist()} is not white (Ljung-Box "
+            f"p-value {np.round(pvalue[bad], 4).tolist()} < {alpha} at lag "
+            f"{whiteness.lags}), but noise_model='gaussian' assumes independent "
+            "rows; use noise_model='ar', or a stage with objective='ljung_box'.",
+            NonWhiteResidualWarning,
+            stacklevel=3,
+        )

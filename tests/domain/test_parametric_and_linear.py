@@ -80,7 +80,7 @@ def test_parametric_model_errors(rng):
         ParametricModel(numpy_only, {}).fit(X, y)
     with pytest.raises(ValueError, match="y has 2 outputs"):
         ParametricModel(numpy_only, {"k": 1.0}).fit(X, np.column_stack([y, y]))
-    with pytest.raises(ValueError, match="objective.*must be a str among"):
+    with pytest.raises(ValueError, match=r"objective.*must be a str among"):
         ParametricModel(numpy_only, {"k": 1.0}, objective="l2").fit(X, y)
 
 

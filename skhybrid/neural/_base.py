@@ -1,0 +1,382 @@
+"""BaseNeuralRegressor: the training protocol shared by the neural estimators."""
+
+from numbers import Integral, Real
+
+import numpy as np
+import torch
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.preprocessing import StandardScaler
+from sklearn.utils import check_random_state
+from sklearn.utils.validation import check_is_fitted
+from skorch import NeuralNetRegressor
+from skorch.callbacks import EarlyStopping, LRScheduler
+from skorch.dataset import Dataset
+from skorch.helper import predefined_split
+from torch.optim.lr_scheduler import ReduceLROnPlateau
+
+from skhybrid.losses import OBJECTIVES, needs_time_order
+from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
+from skhybrid.neural._modules import ObjectiveLoss
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    StrOptions,
+    _fit_context,
+    validate_data,
+)
+
+__all__ = ["BaseNeuralRegressor"]
+
+# Rows per forward pass at prediction time: bounds memory, not results (the
+# module is in eval mode, so a row's prediction does not depend on its batch).
+_PREDICT_CHUNK = 65536
+
+
+def _progress_bar():
+    """skorch's ProgressBar, or None where tqdm (which it needs) is missing."""
+    try:
+        import tqdm  # noqa: F401
+        from skorch.callbacks import ProgressBar
+    except ImportError:  # pragma: no cover - tqdm is a dependency of skorch
+        return None
+    return ProgressBar()
+
+
+class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
+    """Base class of the skorch-backed neural regressors.
+
+    A subclass builds its network in ``_make_module``; this class holds the
+    training protocol of the paper (appendix A), data handling and prediction. It
+    is a plain :class:`~sklearn.base.BaseEstimator`: ``fit`` builds a
+    :class:`skorch.NeuralNetRegressor` and stores it as ``net_``.
+
+    Training protocol:
+
+    - inputs and targets are standardised with the training rows' mean and
+      standard deviation (``x_mean_``, ``x_scale_``, ``y_mean_``, ``y_scale_``);
+      the network sees float32 standardised data, ``predict`` returns float64 in
+      the original units;
+    - Adam with learning rate ``lr``; the learning rate is multiplied by
+      ``lr_factor`` when the monitored loss has not improved for ``lr_patience``
+      epochs (``ReduceLROnPlateau``); training stops when it has not improved for
+      ``patience`` epochs, and the weights of the best epoch are restored;
+    - the monitored loss is the validation loss on the LAST ``validation_fraction``
+      of the rows (rows are assumed in time order, so this is the most recent
+      stretch of data; never a random or leading slice). When
+      ``validation_fraction=0``, or when the training or the validation part would
+      be too small (fewer than 2 rows, or for a Ljung-Box objective no more than
+      ``ljung_box_lags`` rows), the model trains on all rows and monitors the
+      training loss instead;
+    - with ``objective="mse"`` the rows are shuffled into mini-batches of
+      ``batch_size``; an objective with a Ljung-Box term needs time order, so the
+      rows are cut into contiguous blocks of at least ``batch_size`` rows, kept in
+      order inside each block (only the order of the blocks is shuffled), and the
+      validation loss is computed on the whole validation stretch at once.
+
+    For subclasses and for joint training (``HybridEnsembleRegressor``):
+    ``_make_module(n_features, n_outputs)`` returns a freshly initialised
+    :class:`torch.nn.Module` with the estimator's architecture hyperparameters
+    that maps standardised float32 rows of shape ``(n, n_features)`` to
+    ``(n, n_outputs)``. It draws its initial weights from torch's global random
+    generator (seed it, inside :func:`torch.random.fork_rng`, for repeatable
+    weights) and it needs no fitted state, so it can be called on an unfitted
+    estimator. This signature is stable.
+
+    Parameters
+    ----------
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        Training objective on the standardised residuals (see
+        :mod:`skhybrid.losses.base`). A Ljung-Box term assumes the rows are in time
+        order and trains on contiguous blocks of rows.
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term. Must be smaller than ``batch_size``.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    lr : float, default=0.01
+        Initial learning rate of Adam.
+    max_epochs : int, default=200
+        Most passes over the training rows.
+    batch_size : int, default=512
+        Rows per mini-batch.
+    validation_fraction : float, default=0.2
+        Fraction of the rows, taken from the end, used to monitor training.
+    patience : int or None, default=30
+        Epochs without improvement of the monitored loss before training stops;
+        ``None`` trains for ``max_epochs`` (the best weights are still restored).
+    lr_patience : int, default=10
+        Epochs without improvement before the learning rate is reduced.
+    lr_factor : float, default=0.5
+        Factor applied to the learning rate on a plateau.
+    callbacks : list of skorch callbacks or None, default=None
+        Extra skorch callbacks, run after the built-in ones.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initial weights and the shuffling; the global torch random
+        state is left untouched. The same seed gives bitwise-identical
+        predictions on CPU.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the network trains and predicts.
+    verbose : int, default=0
+        0 is silent; 1 or more shows a progress bar and a table of the epochs.
+    """
+
+    _is_abstract_base = True
+
+    _parameter_constraints = {
+        "objective": [StrOptions(set(OBJECTIVES))],
+        "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
+        "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
+        "lr": [Interval(Real, 0, None, closed="neither")],
+        "max_epochs": [Interval(Integral, 1, None, closed="left")],
+        "batch_size": [Interval(Integral, 2, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "patience": [Interval(Integral, 1, None, closed="left"), None],
+        "lr_patience": [Interval(Integral, 0, None, closed="left")],
+        "lr_factor": [Interval(Real, 0, 1, closed="neither")],
+        "callbacks": [list, None],
+        "random_state": ["random_state"],
+        "device": [StrOptions({"cpu", "cuda"})],
+        "verbose": ["verbose"],
+    }
+
+    def __init__(
+        self,
+        *,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        lr=0.01,
+        max_epochs=200,
+        batch_size=512,
+        validation_fraction=0.2,
+        patience=30,
+        lr_patience=10,
+        lr_factor=0.5,
+        callbacks=None,
+        random_state=None,
+        device="cpu",
+        verbose=0,
+    ):
+        self.objective = objective
+        self.ljung_box_lags = ljung_box_lags
+        self.ljung_box_weight = ljung_box_weight
+        self.lr = lr
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.validation_fraction = validation_fraction
+        self.patience = patience
+        self.lr_patience = lr_patience
+        self.lr_factor = lr_factor
+        self.callbacks = callbacks
+        self.random_state = random_state
+        self.device = device
+        self.verbose = verbose
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        return tags
+
+    # -- what subclasses provide -------------------------------------------------
+    def _make_module(self, n_features, n_outputs):
+        """A fresh torch module mapping standardised X to standardised y."""
+        raise NotImplementedError
+
+    def _check_architecture(self, n_features, n_outputs):
+        """Raise a ValueError for hyperparameters that do not fit the data."""
+
+    def _training_module(self, module):
+        """What skorch trains: the module itself, or a wrapper around it."""
+        return module
+
+    def _criterion(self):
+        return ObjectiveLoss, {}
+
+    def _fitted_module(self):
+        """The fitted module that maps X to y."""
+        return self.net_.module_
+
+    # -- helpers -------------------------------------------------------------------
+    def _check_device(self):
+        if self.device == "cuda" and not torch.cuda.is_available():
+            raise ValueError(
+                "device='cuda' but torch finds no CUDA device "
+                "(torch.cuda.is_available() is False); use device='cpu'."
+            )
+
+    def _rng_devices(self):
+        if self.device == "cuda":
+            return [torch.cuda.current_device()]
+        return []
+
+    def _to_tensor(self, array):
+        return torch.as_tensor(
+            np.ascontiguousarray(array, dtype=np.float32), device=self.device
+        )
+
+    def _split(self, n_samples, min_rows):
+        """Number of validation rows taken from the end (0 for none)."""
+        n_valid = int(np.floor(n_samples * self.validation_fraction))
+        if n_valid < min_rows or n_samples - n_valid < min_rows:
+            return 0
+        return n_valid
+
+    # -- public API ----------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Train the network on time-ordered rows.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Rows in time order (see :mod:`skhybrid.preprocessing`); the last
+            ``validation_fraction`` of them monitor training.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Targets.
+
+        Returns
+        -------
+        self : object
+            The fitted estimator.
+        """
+        X, y = validate_data(
+            self,
+            X,
+            y,
+            multi_output=True,
+            y_numeric=True,
+            dtype=np.float64,
+            ensure_min_samples=2,
+        )
+        self._check_device()
+        y2 = y.reshape(-1, 1) if y.ndim == 1 else y
+        n_samples, n_features = X.shape
+        n_outputs = y2.shape[1]
+        self._check_architecture(n_features, n_outputs)
+        time_ordered = needs_time_order(self.objective)
+        min_rows = self.ljung_box_lags + 1 if time_ordered else 2
+        if time_ordered:
+            if self.batch_size <= self.ljung_box_lags:
+                raise ValueError(
+                    f"batch_size={self.batch_size} must be larger than "
+                    f"ljung_box_lags={self.ljung_box_lags}: objective="
+                    f"{self.objective!r} computes autocorrelations within each "
+                    "block of batch_size rows."
+                )
+            if n_samples < min_rows:
+                raise ValueError(
+                    f"ljung_box_lags={self.ljung_box_lags} must be smaller than "
+                    f"the number of samples, n_samples={n_samples}."
+                )
+
+        x_scaler = StandardScaler().fit(X)
+        y_scaler = StandardScaler().fit(y2)
+        self.x_mean_, self.x_scale_ = x_scaler.mean_, x_scaler.scale_
+        self.y_mean_, self.y_scale_ = y_scaler.mean_, y_scaler.scale_
+        self.n_outputs_ = n_outputs
+        self._y_1d = y.ndim == 1
+        Xt = self._to_tensor((X - self.x_mean_) / self.x_scale_)
+        yt = self._to_tensor((y2 - self.y_mean_) / self.y_scale_)
+
+        n_valid = self._split(n_samples, min_rows)
+        monitor = "valid_loss" if n_valid else "train_loss"
+        if n_valid:
+            stop = n_samples - n_valid
+            train_split = predefined_split(Dataset(Xt[stop:], yt[stop:]))
+            Xt, yt = Xt[:stop], yt[:stop]
+            # A Ljung-Box validation loss is the statistic of the whole stretch.
+            valid_batch_size = n_valid if time_ordered else self.batch_size
+        else:
+            train_split, valid_batch_size = None, self.batch_size
+
+        callbacks = [
+            ("divergence_check", DivergenceCheck(self.lr)),
+            (
+                "lr_scheduler",
+                LRScheduler(
+                    policy=ReduceLROnPlateau,
+                    monitor=monitor,
+                    factor=self.lr_factor,
+                    patience=self.lr_patience,
+                ),
+            ),
+            (
+                "early_stopping",
+                EarlyStopping(
+                    monitor=monitor,
+                    patience=self.patience or self.max_epochs + 1,
+                    load_best=True,
+                ),
+            ),
+        ]
+        if self.verbose:
+            bar = _progress_bar()
+            if bar is not None:
+                callbacks.append(("progress_bar", bar))
+        for i, cb in enumerate(self.callbacks or []):
+            callbacks.append((f"user_{i}", cb))
+
+        criterion, criterion_kwargs = self._criterion()
+        seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
+        with torch.random.fork_rng(devices=self._rng_devices()):
+            torch.manual_seed(seed)
+            module = self._training_module(self._make_module(n_features, n_outputs))
+            net = NeuralNetRegressor(
+                module=module,
+                criterion=criterion,
+                criterion__objective=self.objective,
+                criterion__lags=self.ljung_box_lags,
+                criterion__ljung_box_weight=self.ljung_box_weight,
+                **{f"criterion__{k}": v for k, v in criterion_kwargs.items()},
+                optimizer=torch.optim.Adam,
+                lr=self.lr,
+                max_epochs=self.max_epochs,
+                batch_size=self.batch_size,
+                train_split=train_split,
+                iterator_train=BatchIterator,
+                iterator_train__shuffle=True,
+                iterator_train__contiguous=time_ordered,
+                iterator_valid=BatchIterator,
+                iterator_valid__contiguous=time_ordered,
+                iterator_valid__batch_size=valid_batch_size,
+                callbacks=callbacks,
+                device=self.device,
+                verbose=self.verbose,
+            )
+            # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
+            # stopping) inside fit and restores the best weights on the way out.
+            net.fit(Xt, yt)
+        net.module_.eval()
+        self.net_ = net
+        self.history_ = net.history
+        self.n_epochs_ = sum("train_loss" in row for row in net.history)
+        self.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
+        return self
+
+    def _forward(self, module, Xs):
+        """Run a module in eval mode on standardised float64 rows, in chunks."""
+        module.eval()
+        out = []
+        with torch.no_grad():
+            for start in range(0, Xs.shape[0], _PREDICT_CHUNK):
+                chunk = self._to_tensor(Xs[start : start + _PREDICT_CHUNK])
+                out.append(module(chunk).detach().cpu().numpy())
+        return np.concatenate(out).astype(np.float64)
+
+    def predict(self, X):
+        """Predict with the trained network.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Rows laid out as in ``fit``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Float64 predictions in the units of ``y``; 1-D when ``y`` was 1-D in
+            ``fit``.
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        Xs = (X - self.x_mean_) / self.x_scale_
+        y_pred = self._forward(self._fitted_module(), Xs) * self.y_scale_ + self.y_mean_
+        return y_pred[:, 0] if self._y_1d else y_pred

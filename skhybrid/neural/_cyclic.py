@@ -1,0 +1,238 @@
+"""CyclicRegressor: an encoder X -> y trained together with a decoder y -> X."""
+
+from numbers import Real
+
+import numpy as np
+from sklearn.utils import check_array
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.neural._base import BaseNeuralRegressor
+from skhybrid.neural._dense import _check_layer_sizes
+from skhybrid.neural._modules import CycleTrainingModule, CyclicLoss, CyclicModule
+from skhybrid.utils._sklearn_compat import Interval
+
+__all__ = ["CyclicRegressor"]
+
+
+class CyclicRegressor(BaseNeuralRegressor):
+    """Cyclic (autoencoding) regressor: a forward model and its inverse, together.
+
+    An encoder (a perceptron, as in :class:`DenseRegressor`) maps ``X`` to
+    ``y_hat``; a decoder maps ``y_hat`` back to ``X``. Both train together on
+
+        ``objective(y, y_hat) + cycle_weight * mean((X - decoder(y_hat)) ** 2)``
+
+    in standardised units (the paper's cyclic method, section 3.3). The cycle term
+    asks the encoder for predictions from which the inputs can be recovered, which
+    regularises it; the decoder is a model of the inverse map, available as
+    :meth:`inverse_predict`. Trains with the paper's protocol (see
+    :class:`DenseRegressor`).
+
+    Parameters
+    ----------
+    hidden_layer_sizes : tuple of int, default=(256,) * 10
+        Hidden layers of the encoder (the paper's 10 layers of 256 units).
+    decoder_layer_sizes : tuple of int or None, default=None
+        Hidden layers of the decoder; ``None`` uses ``hidden_layer_sizes``.
+    cycle_weight : float, default=1.0
+        Weight of the reconstruction term (0 trains the encoder alone).
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        Training objective on the standardised residuals (see
+        :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
+        the rows are in time order and trains on contiguous blocks of rows, never
+        on shuffled rows.
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    lr : float, default=0.01
+        Initial learning rate of Adam.
+    max_epochs : int, default=200
+        Most passes over the training rows.
+    batch_size : int, default=512
+        Rows per mini-batch.
+    validation_fraction : float, default=0.2
+        Fraction of the rows, taken from the END (the most recent rows), whose
+        loss drives the learning-rate schedule, early stopping and the choice of
+        the best weights. 0 trains on all rows and monitors the training loss.
+    patience : int or None, default=30
+        Epochs without improvement of the monitored loss before training stops
+        (early stopping); ``None`` trains for ``max_epochs``.
+    lr_patience : int, default=10
+        Epochs without improvement before the learning rate is reduced.
+    lr_factor : float, default=0.5
+        Factor applied to the learning rate on a plateau.
+    callbacks : list of skorch callbacks or None, default=None
+        Extra :mod:`skorch.callbacks`, run after the built-in ones.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initial weights and the shuffling, without touching torch's
+        global random state. The same seed gives bitwise-identical predictions
+        on CPU.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the network trains and predicts.
+    verbose : int, default=0
+        0 is silent; 1 or more shows a progress bar and skorch's table of epochs.
+    Attributes
+    ----------
+    net_ : skorch.NeuralNetRegressor
+        The trained skorch net (its ``module_`` in eval mode).
+    history_ : skorch.History
+        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
+        split, ``history_[:, "valid_loss"]`` (standardised units).
+    n_epochs_ : int
+        Epochs completed.
+    best_epoch_ : int
+        Epoch (1-based) whose weights were kept: the lowest monitored loss.
+    n_features_in_ : int
+        Number of columns of ``X`` seen in ``fit``.
+    n_outputs_ : int
+        Number of target columns.
+    x_mean_, x_scale_ : ndarray of shape (n_features,)
+        Mean and scale used to standardise ``X``.
+    y_mean_, y_scale_ : ndarray of shape (n_outputs,)
+        Mean and scale used to standardise ``y``.
+    See Also
+    --------
+    DenseRegressor : the encoder alone.
+    RNNRegressor : a recurrent network over the time steps of each row.
+
+    Notes
+    -----
+    ``predict`` runs the encoder, ``inverse_predict`` the decoder. The
+    reconstruction is only as good as ``y`` is informative about ``X``: where
+    several inputs lead to the same output, the decoder returns their average.
+    ``history_`` records the total loss (objective plus cycle term).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.neural import CyclicRegressor
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.uniform(0, 1, size=(500, 1))
+    >>> y = np.exp(X[:, 0])
+    >>> model = CyclicRegressor(hidden_layer_sizes=(32, 32), max_epochs=60,
+    ...                         batch_size=64, random_state=0).fit(X, y)
+    >>> model.predict(X[:2]).shape
+    (2,)
+    >>> model.inverse_predict(y[:2]).shape
+    (2, 1)
+    """
+
+    _parameter_constraints = {
+        **BaseNeuralRegressor._parameter_constraints,
+        "hidden_layer_sizes": ["array-like"],
+        "decoder_layer_sizes": ["array-like", None],
+        "cycle_weight": [Interval(Real, 0, None, closed="left")],
+    }
+
+    def __init__(
+        self,
+        hidden_layer_sizes=(256,) * 10,
+        *,
+        decoder_layer_sizes=None,
+        cycle_weight=1.0,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        lr=0.01,
+        max_epochs=200,
+        batch_size=512,
+        validation_fraction=0.2,
+        patience=30,
+        lr_patience=10,
+        lr_factor=0.5,
+        callbacks=None,
+        random_state=None,
+        device="cpu",
+        verbose=0,
+    ):
+        super().__init__(
+            objective=objective,
+            ljung_box_lags=ljung_box_lags,
+            ljung_box_weight=ljung_box_weight,
+            lr=lr,
+            max_epochs=max_epochs,
+            batch_size=batch_size,
+            validation_fraction=validation_fraction,
+            patience=patience,
+            lr_patience=lr_patience,
+            lr_factor=lr_factor,
+            callbacks=callbacks,
+            random_state=random_state,
+            device=device,
+            verbose=verbose,
+        )
+        self.hidden_layer_sizes = hidden_layer_sizes
+        self.decoder_layer_sizes = decoder_layer_sizes
+        self.cycle_weight = cycle_weight
+
+    def _layer_sizes(self):
+        encoder = _check_layer_sizes("hidden_layer_sizes", self.hidden_layer_sizes)
+        if self.decoder_layer_sizes is None:
+            return encoder, encoder
+        decoder = _check_layer_sizes("decoder_layer_sizes", self.decoder_layer_sizes)
+        return encoder, decoder
+
+    def _check_architecture(self, n_features, n_outputs):
+        self._layer_sizes()
+
+    def _make_module(self, n_features, n_outputs):
+        """A fresh :class:`CyclicModule`; calling it runs the encoder.
+
+        Parameters
+        ----------
+        n_features : int
+            Input width.
+        n_outputs : int
+            Output width.
+
+        Returns
+        -------
+        module : torch.nn.Module
+            Maps standardised ``(n, n_features)`` float32 rows to ``(n, n_outputs)``
+            (the encoder); ``module.reconstruct(y)`` runs the decoder and
+            ``module.encoder`` / ``module.decoder`` are the two halves.
+        """
+        encoder, decoder = self._layer_sizes()
+        return CyclicModule(int(n_features), int(n_outputs), encoder, decoder)
+
+    def _training_module(self, module):
+        return CycleTrainingModule(module)
+
+    def _criterion(self):
+        return CyclicLoss, {"cycle_weight": self.cycle_weight}
+
+    def _fitted_module(self):
+        return self.net_.module_.cyclic
+
+    def inverse_predict(self, y):
+        """Reconstruct the inputs from outputs with the decoder (the inverse model).
+
+        Parameters
+        ----------
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Outputs, in the units of the ``y`` seen in ``fit``.
+
+        Returns
+        -------
+        X_rec : ndarray of shape (n_samples, n_features_in_)
+            Float64 reconstruction of the inputs, in the units of ``X``.
+        """
+        check_is_fitted(self)
+        y = _check_y(y, self.n_outputs_)
+        ys = (y - self.y_mean_) / self.y_scale_
+        X_rec = self._forward(self._fitted_module().decoder, ys)
+        return X_rec * self.x_scale_ + self.x_mean_
+
+
+def _check_y(y, n_outputs):
+    y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
+    if y.ndim == 1:
+        y = y.reshape(-1, 1)
+    if y.ndim != 2 or y.shape[1] != n_outputs:
+        raise ValueError(
+            f"y has shape {y.shape}; the model was fitted with n_outputs_={n_outputs} "
+            "target columns, so y must be (n_samples,) for one output or "
+            "(n_samples, n_outputs_)."
+        )
+    return y

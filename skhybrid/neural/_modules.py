@@ -1,0 +1,192 @@
+"""The torch modules behind the neural estimators.
+
+Every module maps standardised float32 rows ``X`` of shape ``(n, n_features)`` to
+``(n, n_outputs)`` and applies batch normalisation at its input, as in the paper's
+protocol (appendix A). They are plain :class:`torch.nn.Module` subclasses, so the
+hybrid ensemble can train them jointly with the parameters of a domain model.
+"""
+
+import torch
+from torch import nn
+
+from skhybrid.losses import objective_value
+
+__all__ = [
+    "CycleTrainingModule",
+    "CyclicLoss",
+    "CyclicModule",
+    "MLPModule",
+    "ObjectiveLoss",
+    "RecurrentModule",
+]
+
+_CELLS = {"gru": nn.GRU, "lstm": nn.LSTM, "rnn": nn.RNN}
+
+
+class MLPModule(nn.Module):
+    """Batch norm at the input, then ``Linear -> ReLU`` hidden layers, linear head.
+
+    Parameters
+    ----------
+    n_features : int
+        Input width.
+    n_outputs : int
+        Output width.
+    hidden_layer_sizes : sequence of int
+        Widths of the hidden layers; empty for a linear model (after batch norm).
+    """
+
+    def __init__(self, n_features, n_outputs, hidden_layer_sizes):
+        super().__init__()
+        layers = [nn.BatchNorm1d(n_features)]
+        width = n_features
+        for size in hidden_layer_sizes:
+            layers += [nn.Linear(width, int(size)), nn.ReLU()]
+            width = int(size)
+        layers.append(nn.Linear(width, n_outputs))
+        self.layers = nn.Sequential(*layers)
+
+    def forward(self, X):
+        return self.layers(X)
+
+
+class RecurrentModule(nn.Module):
+    """A recurrent network over the time steps of a row, linear head on the last one.
+
+    A row of ``n_steps * n_step_features`` columns is read as ``n_steps`` time steps,
+    oldest first (the data convention of :mod:`skhybrid.preprocessing`). Each step's
+    features go through batch norm (statistics shared across steps), then the
+    stacked recurrent layers; a linear layer maps the hidden state after the newest
+    step to the outputs.
+
+    Parameters
+    ----------
+    n_step_features : int
+        Columns of one time step.
+    n_steps : int
+        Time steps per row.
+    n_outputs : int
+        Output width.
+    cell : {"gru", "lstm", "rnn"}
+        Recurrent cell.
+    hidden_size : int
+        Hidden units per layer.
+    num_layers : int
+        Stacked recurrent layers.
+    """
+
+    def __init__(
+        self, n_step_features, n_steps, n_outputs, cell, hidden_size, num_layers
+    ):
+        super().__init__()
+        self.n_steps = n_steps
+        self.n_step_features = n_step_features
+        self.batch_norm = nn.BatchNorm1d(n_step_features)
+        self.rnn = _CELLS[cell](
+            input_size=n_step_features,
+            hidden_size=hidden_size,
+            num_layers=num_layers,
+            batch_first=True,
+        )
+        self.head = nn.Linear(hidden_size, n_outputs)
+
+    def forward(self, X):
+        n = X.shape[0]
+        steps = self.batch_norm(X.reshape(n * self.n_steps, self.n_step_features))
+        out, _ = self.rnn(steps.reshape(n, self.n_steps, self.n_step_features))
+        return self.head(out[:, -1, :])
+
+
+class CyclicModule(nn.Module):
+    """An encoder ``X -> y`` and a decoder ``y -> X``; calling it runs the encoder.
+
+    Parameters
+    ----------
+    n_features : int
+        Input width (the decoder's output width).
+    n_outputs : int
+        Output width (the decoder's input width).
+    hidden_layer_sizes : sequence of int
+        Hidden layers of the encoder.
+    decoder_layer_sizes : sequence of int
+        Hidden layers of the decoder.
+    """
+
+    def __init__(self, n_features, n_outputs, hidden_layer_sizes, decoder_layer_sizes):
+        super().__init__()
+        self.encoder = MLPModule(n_features, n_outputs, hidden_layer_sizes)
+        self.decoder = MLPModule(n_outputs, n_features, decoder_layer_sizes)
+
+    def forward(self, X):
+        return self.encoder(X)
+
+    def reconstruct(self, y):
+        """Decode (standardised) outputs back to (standardised) inputs."""
+        return self.decoder(y)
+
+
+class CycleTrainingModule(nn.Module):
+    """What skorch trains for a :class:`CyclicModule`: both halves in one pass.
+
+    ``forward(X)`` returns ``(y_hat, decoder(y_hat), X)`` so that the criterion sees
+    the prediction, the reconstruction and the input it must reproduce. Gradients of
+    the cycle term flow through ``y_hat`` into the encoder as well: the cycle loss
+    asks the encoder for predictions from which the input can be recovered.
+    """
+
+    def __init__(self, cyclic):
+        super().__init__()
+        self.cyclic = cyclic
+
+    def forward(self, X):
+        y_hat = self.cyclic.encoder(X)
+        return y_hat, self.cyclic.decoder(y_hat), X
+
+
+class ObjectiveLoss(nn.Module):
+    """A training objective of :mod:`skhybrid.losses` as a torch criterion.
+
+    ``forward(y_pred, y_true)`` returns ``objective_value(y_true - y_pred, ...)``;
+    with a Ljung-Box term the rows of a batch must be in time order.
+
+    Parameters
+    ----------
+    objective : {"mse", "ljung_box", "mse+ljung_box"}
+        The objective.
+    lags : int
+        Ljung-Box lags.
+    ljung_box_weight : float
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    """
+
+    def __init__(self, objective="mse", lags=20, ljung_box_weight=1.0):
+        super().__init__()
+        self.objective = objective
+        self.lags = lags
+        self.ljung_box_weight = ljung_box_weight
+
+    def forward(self, y_pred, y_true):
+        return objective_value(
+            y_true - y_pred,
+            self.objective,
+            lags=self.lags,
+            ljung_box_weight=self.ljung_box_weight,
+        )
+
+
+class CyclicLoss(ObjectiveLoss):
+    """``objective(y, y_hat) + cycle_weight * mse(X, decoder(y_hat))``.
+
+    Takes the output ``(y_hat, X_reconstructed, X)`` of :class:`CycleTrainingModule`.
+    """
+
+    def __init__(
+        self, objective="mse", lags=20, ljung_box_weight=1.0, cycle_weight=1.0
+    ):
+        super().__init__(objective, lags, ljung_box_weight)
+        self.cycle_weight = cycle_weight
+
+    def forward(self, y_pred, y_true):
+        y_hat, X_rec, X = y_pred
+        loss = super().forward(y_hat, y_true)
+        return loss + self.cycle_weight * torch.mean((X_rec - X) ** 2)

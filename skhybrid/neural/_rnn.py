@@ -1,0 +1,197 @@
+"""RNNRegressor: a recurrent network over the time steps of each row."""
+
+from numbers import Integral
+
+from skhybrid.neural._base import BaseNeuralRegressor
+from skhybrid.neural._modules import RecurrentModule
+from skhybrid.preprocessing import step_width
+from skhybrid.utils._sklearn_compat import Interval, StrOptions
+
+__all__ = ["RNNRegressor"]
+
+
+class RNNRegressor(BaseNeuralRegressor):
+    """Recurrent network regressor (GRU, LSTM or Elman RNN), skorch-backed.
+
+    A row of ``X`` is a window of ``n_steps`` time steps, oldest first (the data
+    convention of :mod:`skhybrid.preprocessing`); the network reads it as a
+    sequence of shape ``(n_steps, n_features // n_steps)``, with batch
+    normalisation of each step's features at the input, and a linear layer maps
+    the hidden state after the newest step to the outputs. History comes from the
+    window, not from neighbouring rows, so predictions never depend on row order.
+    Trains with the paper's protocol (see :class:`DenseRegressor`).
+
+    Parameters
+    ----------
+    cell : {"gru", "lstm", "rnn"}, default="gru"
+        Recurrent cell: :class:`torch.nn.GRU`, :class:`torch.nn.LSTM` or
+        :class:`torch.nn.RNN` (tanh).
+    hidden_size : int, default=50
+        Hidden units per recurrent layer (the paper: 50).
+    num_layers : int, default=10
+        Stacked recurrent layers (the paper: 10). Deep stacks train slowly; 1 to 3
+        layers are often enough.
+    n_steps : int, default=1
+        Time steps per row; ``n_features`` must be a multiple of it.
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        Training objective on the standardised residuals (see
+        :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
+        the rows are in time order and trains on contiguous blocks of rows, never
+        on shuffled rows.
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    lr : float, default=0.01
+        Initial learning rate of Adam.
+    max_epochs : int, default=200
+        Most passes over the training rows.
+    batch_size : int, default=512
+        Rows per mini-batch.
+    validation_fraction : float, default=0.2
+        Fraction of the rows, taken from the END (the most recent rows), whose
+        loss drives the learning-rate schedule, early stopping and the choice of
+        the best weights. 0 trains on all rows and monitors the training loss.
+    patience : int or None, default=30
+        Epochs without improvement of the monitored loss before training stops
+        (early stopping); ``None`` trains for ``max_epochs``.
+    lr_patience : int, default=10
+        Epochs without improvement before the learning rate is reduced.
+    lr_factor : float, default=0.5
+        Factor applied to the learning rate on a plateau.
+    callbacks : list of skorch callbacks or None, default=None
+        Extra :mod:`skorch.callbacks`, run after the built-in ones.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initial weights and the shuffling, without touching torch's
+        global random state. The same seed gives bitwise-identical predictions
+        on CPU.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the network trains and predicts.
+    verbose : int, default=0
+        0 is silent; 1 or more shows a progress bar and skorch's table of epochs.
+    Attributes
+    ----------
+    net_ : skorch.NeuralNetRegressor
+        The trained skorch net (its ``module_`` in eval mode).
+    history_ : skorch.History
+        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
+        split, ``history_[:, "valid_loss"]`` (standardised units).
+    n_epochs_ : int
+        Epochs completed.
+    best_epoch_ : int
+        Epoch (1-based) whose weights were kept: the lowest monitored loss.
+    n_features_in_ : int
+        Number of columns of ``X`` seen in ``fit``.
+    n_outputs_ : int
+        Number of target columns.
+    x_mean_, x_scale_ : ndarray of shape (n_features,)
+        Mean and scale used to standardise ``X``.
+    y_mean_, y_scale_ : ndarray of shape (n_outputs,)
+        Mean and scale used to standardise ``y``.
+    See Also
+    --------
+    DenseRegressor : a multilayer perceptron on the flattened row.
+    skhybrid.preprocessing.make_windows : builds windows of ``n_steps`` steps.
+
+    Notes
+    -----
+    ``fit`` builds a :class:`skorch.NeuralNetRegressor` (``net_``). A loss that
+    becomes NaN or infinite stops training with
+    :class:`~skhybrid.exceptions.TrainingDivergedError`; Ctrl-C during ``fit``
+    keeps the best weights so far.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.neural import RNNRegressor
+    >>> from skhybrid.preprocessing import make_windows
+    >>> t = np.arange(600) * 0.1
+    >>> X, y = make_windows(np.sin(t)[:, None], np.cos(0.5 * t)[:, None], n_steps=3)
+    >>> model = RNNRegressor(hidden_size=16, num_layers=1, n_steps=3,
+    ...                      max_epochs=40, batch_size=64, random_state=0)
+    >>> model.fit(X, y.ravel()).predict(X[:2]).shape
+    (2,)
+    """
+
+    _parameter_constraints = {
+        **BaseNeuralRegressor._parameter_constraints,
+        "cell": [StrOptions({"gru", "lstm", "rnn"})],
+        "hidden_size": [Interval(Integral, 1, None, closed="left")],
+        "num_layers": [Interval(Integral, 1, None, closed="left")],
+        "n_steps": [Interval(Integral, 1, None, closed="left")],
+    }
+
+    def __init__(
+        self,
+        cell="gru",
+        *,
+        hidden_size=50,
+        num_layers=10,
+        n_steps=1,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        lr=0.01,
+        max_epochs=200,
+        batch_size=512,
+        validation_fraction=0.2,
+        patience=30,
+        lr_patience=10,
+        lr_factor=0.5,
+        callbacks=None,
+        random_state=None,
+        device="cpu",
+        verbose=0,
+    ):
+        super().__init__(
+            objective=objective,
+            ljung_box_lags=ljung_box_lags,
+            ljung_box_weight=ljung_box_weight,
+            lr=lr,
+            max_epochs=max_epochs,
+            batch_size=batch_size,
+            validation_fraction=validation_fraction,
+            patience=patience,
+            lr_patience=lr_patience,
+            lr_factor=lr_factor,
+            callbacks=callbacks,
+            random_state=random_state,
+            device=device,
+            verbose=verbose,
+        )
+        self.cell = cell
+        self.hidden_size = hidden_size
+        self.num_layers = num_layers
+        self.n_steps = n_steps
+
+    def _check_architecture(self, n_features, n_outputs):
+        step_width(n_features, self.n_steps)
+
+    def _make_module(self, n_features, n_outputs):
+        """A fresh :class:`RecurrentModule` for rows of ``n_features`` columns.
+
+        Parameters
+        ----------
+        n_features : int
+            Input width; a multiple of ``n_steps``.
+        n_outputs : int
+            Output width.
+
+        Returns
+        -------
+        module : torch.nn.Module
+            Maps standardised ``(n, n_features)`` float32 rows to ``(n, n_outputs)``;
+            freshly initialised from torch's global random generator.
+        """
+        if self.cell not in ("gru", "lstm", "rnn"):
+            raise ValueError(
+                f"cell must be 'gru', 'lstm' or 'rnn'; got cell={self.cell!r}."
+            )
+        return RecurrentModule(
+            n_step_features=step_width(int(n_features), self.n_steps),
+            n_steps=self.n_steps,
+            n_outputs=int(n_outputs),
+            cell=self.cell,
+            hidden_size=self.hidden_size,
+            num_layers=self.num_layers,
+        )

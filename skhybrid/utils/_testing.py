@@ -10,6 +10,9 @@ with its reason. Keep it empty unless an issue allows an entry.
 
 import numpy as np
 
+# Stages of the hybrid compositions (imported here, used in FAST_PARAMS below).
+from skhybrid.domain import LinearStateSpaceModel
+from skhybrid.neural import DenseRegressor
 from skhybrid.utils.discovery import all_estimators
 
 __all__ = [
@@ -26,6 +29,28 @@ def affine_sum(X, *, a, b, xp=np):
 
 
 FAST_PARAMS = {
+    # Hybrid compositions: a linear physics model, then a tiny dense network.
+    "HybridBoostingRegressor": dict(
+        stages=[
+            ("physics", LinearStateSpaceModel()),
+            (
+                "dense",
+                DenseRegressor(
+                    hidden_layer_sizes=(8,),
+                    max_epochs=8,
+                    batch_size=32,
+                    lr=0.03,
+                    random_state=0,
+                ),
+            ),
+        ]
+    ),
+    "HybridEnsembleRegressor": dict(
+        domain=LinearStateSpaceModel(),
+        neural=DenseRegressor(hidden_layer_sizes=(8,)),
+        max_epochs=20,
+        random_state=0,
+    ),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),
     # Neural stages: tiny networks, few epochs. lr=0.03 and batch_size=32 give
     # check_regressors_train R^2 of about 0.75-0.83 (> 0.5 needed) in 8 epochs.

@@ -121,17 +121,23 @@ def _coefficients(p):
     )
 
 
-def _rhs(i, theta_m, w_m, theta_l, w_l, voltage, c):
-    """Time derivatives of the five full-state arrays under ``voltage``."""
+def _rhs(x, voltage, c):
+    """Time derivative of full states ``x`` of shape (5, n) under ``voltage`` (n,)."""
     inv_n, b, k, damp, r_l, ke_l, inv_l, kt_j, bm_j, inv_nj, bl_j, inv_jl = c
+    i, theta_m, w_m, theta_l, w_l = x
     twist = theta_m * inv_n - theta_l
     # Shaft torque: spring on the dead-zone twist plus damping, zero inside the gap.
     dead_zone = twist - np.clip(twist, -b, b)
     tau = k * dead_zone + (dead_zone != 0.0) * (damp * (w_m * inv_n - w_l))
-    di = voltage * inv_l - r_l * i - ke_l * w_m
-    dw_m = kt_j * i - bm_j * w_m - inv_nj * tau
-    dw_l = inv_jl * tau - bl_j * w_l
-    return di, w_m, dw_m, w_l, dw_l
+    return np.stack(
+        [
+            voltage * inv_l - r_l * i - ke_l * w_m,
+            w_m,
+            kt_j * i - bm_j * w_m - inv_nj * tau,
+            w_l,
+            inv_jl * tau - bl_j * w_l,
+        ]
+    )
 
 
 def _advance(z, voltage, dt, p):
@@ -139,17 +145,14 @@ def _advance(z, voltage, dt, p):
     n_sub = max(1, math.ceil(dt / _MAX_SUBSTEP - 1e-9))
     h = dt / n_sub
     c = _coefficients(p)
-    x = tuple(z.T)
+    x = z.T
     for _ in range(n_sub):
-        k1 = _rhs(*x, voltage, c)
-        k2 = _rhs(*(a + 0.5 * h * d for a, d in zip(x, k1, strict=True)), voltage, c)
-        k3 = _rhs(*(a + 0.5 * h * d for a, d in zip(x, k2, strict=True)), voltage, c)
-        k4 = _rhs(*(a + h * d for a, d in zip(x, k3, strict=True)), voltage, c)
-        x = tuple(
-            a + h / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
-            for a, d1, d2, d3, d4 in zip(x, k1, k2, k3, k4, strict=True)
-        )
-    return np.column_stack(x)
+        k1 = _rhs(x, voltage, c)
+        k2 = _rhs(x + 0.5 * h * k1, voltage, c)
+        k3 = _rhs(x + 0.5 * h * k2, voltage, c)
+        k4 = _rhs(x + h * k3, voltage, c)
+        x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x.T
 
 
 def _simulate(voltage, dt, p, start=None):
@@ -226,7 +229,7 @@ def dc_motor_step(X, *, gain, time_constant, dt=0.001, xp=np):
     --------
     >>> from skhybrid.datasets import dc_motor_step, make_dc_motor
     >>> from skhybrid.domain import ParametricModel
-    >>> data = make_dc_motor(n_samples=2000, random_state=0)
+    >>> data = make_dc_motor(n_samples=1000, episode_length=250, random_state=0)
     >>> model = ParametricModel(dc_motor_step, {"gain": 1.0, "time_constant": 0.1})
     >>> model = model.fit(data.X, data.y)
     >>> sorted(model.params_)
@@ -357,12 +360,14 @@ def make_dc_motor(
     Examples
     --------
     >>> from skhybrid.datasets import make_dc_motor
-    >>> train = make_dc_motor(n_samples=2000, random_state=0)
+    >>> train = make_dc_motor(n_samples=1000, episode_length=250, random_state=0)
     >>> train.X.shape, train.y.shape
-    ((2000, 3), (2000, 2))
+    ((1000, 3), (1000, 2))
     >>> train.feature_names
     ['load_angle[t]', 'load_speed[t]', 'voltage[t]']
-    >>> extrapolative = make_dc_motor(2000, excitation_hz=100.0, random_state=1)
+    >>> extrapolative = make_dc_motor(
+    ...     1000, excitation_hz=100.0, episode_length=250, random_state=1
+    ... )
     """
     n_samples = _check_int(n_samples, "n_samples", 1)
     excitation_hz = _check_real(

@@ -1,0 +1,60 @@
+"""Tests of the loaders of measured benchmark data (skipped where it is absent)."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from skhybrid.datasets import load_cascaded_tanks, load_emps, load_silverbox
+
+
+def test_silverbox(shared_data_dir):
+    data = load_silverbox(shared_data_dir)
+    assert data.u.shape == data.y.shape == (131072, 1)
+    lengths = {name: split.u.shape[0] for name, split in data.splits.items()}
+    assert lengths == {
+        "train": 65062,
+        "test_multisine": 21688,
+        "test_arrow_full": 40475,
+        "test_arrow_no_extrapolation": 32000,
+    }
+    start, stop = data.split_indices["train"]
+    assert_array_equal(data.splits["train"].y, data.y[start:stop])
+    # Figures quoted in the data README: the arrow exceeds the training amplitude.
+    assert_allclose(np.abs(data.splits["train"].y).max(), 0.2163, atol=1e-4)
+    assert data.splits["test_arrow_full"].y.min() < -0.30
+    assert data.n_init == 50
+    assert_allclose(1 / data.dt, 610.35, atol=0.01)
+    assert "Wigren" in data.DESCR
+    # The subfolder itself works as well as its parent.
+    again = load_silverbox(shared_data_dir / "silverbox")
+    assert_array_equal(again.y, data.y)
+
+
+def test_cascaded_tanks(shared_data_dir):
+    data = load_cascaded_tanks(str(shared_data_dir))
+    assert set(data.splits) == {"train", "test"}
+    for split in data.splits.values():
+        assert split.u.shape == split.y.shape == (1024, 1)
+    assert data.dt == 4.0
+    assert data.n_init == 50
+    # The output clips at 10 V when the lower tank overflows.
+    assert_allclose(max(s.y.max() for s in data.splits.values()), 10.0, atol=1e-6)
+    assert "Schoukens" in data.DESCR
+
+
+def test_emps(shared_data_dir):
+    data = load_emps(shared_data_dir)
+    for split in data.splits.values():
+        assert split.u.shape == split.y.shape == split.t.shape == (24841, 1)
+        assert split.reference.shape == (24841, 1)
+    assert_allclose(data.controller["gtau"], 35.15, atol=0.01)
+    assert data.n_init == 20 and data.dt == 1e-3
+    assert "Janot" in data.DESCR
+
+
+@pytest.mark.parametrize("loader", [load_silverbox, load_cascaded_tanks, load_emps])
+def test_missing_folder_names_the_path(loader, tmp_path):
+    with pytest.raises(FileNotFoundError, match="path="):
+        loader(tmp_path)
+    with pytest.raises(TypeError, match="path"):
+        loader(42)

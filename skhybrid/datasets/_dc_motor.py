@@ -29,7 +29,7 @@ _FULL_STATE_NAMES = [
 # Physical constants of the simulated drive (SI units). The electrical time
 # constant is L / R = 0.5 ms, the rigid mechanical one about 10 ms, and the
 # engaged shaft resonates near 22 Hz, between the 10 Hz and 100 Hz excitations.
-DC_MOTOR_PARAMS = {
+_DC_MOTOR_PARAMS = {
     "resistance": 2.0,  # armature resistance R (ohm)
     "inductance": 1e-3,  # armature inductance L (H)
     "back_emf": 0.02,  # back-EMF constant Ke (V s/rad)
@@ -81,7 +81,7 @@ skhybrid.datasets.dc_motor_step is its physically parametrised rigid-gear form.
 
 
 def _check_motor_params(motor_params):
-    params = dict(DC_MOTOR_PARAMS)
+    params = dict(_DC_MOTOR_PARAMS)
     if motor_params is None:
         return params
     if not isinstance(motor_params, dict):
@@ -169,7 +169,7 @@ def _simulate(voltage, dt, p, start=None):
     return full
 
 
-def rigid_motor_params(params, dt):
+def _rigid_motor_params(params, dt):
     """Gain and time constant of the rigid, inductance-free reduction of the drive."""
     n, r = params["gear_ratio"], params["resistance"]
     friction = params["load_friction"] + n**2 * (
@@ -286,8 +286,9 @@ def make_dc_motor(
     dt : float, default=0.001
         Sample period (s).
     motor_params : dict or None, default=None
-        Values overriding the physical constants of ``DC_MOTOR_PARAMS`` (see
-        Notes); ``None`` keeps the defaults.
+        Values overriding some of the physical constants listed in Notes;
+        ``None`` keeps the defaults. All constants used are returned as
+        ``true_params``.
     random_state : int, RandomState instance or None, default=None
         Seed of the excitation and the noise.
 
@@ -322,7 +323,7 @@ def make_dc_motor(
         target_names, state_names, input_names : list of str
             ``["load_angle", "load_speed"]`` and ``["voltage"]``.
         true_params : dict
-            The physical constants used (``DC_MOTOR_PARAMS`` updated with
+            The physical constants used (the defaults updated with
             ``motor_params``) and ``dt``.
         rigid_params : dict
             ``gain``, ``time_constant`` and ``dt`` of :func:`dc_motor_step` for
@@ -350,7 +351,10 @@ def make_dc_motor(
     Ke, ``torque_constant`` Kt, ``motor_inertia`` Jm, ``motor_friction`` bm,
     ``gear_ratio`` n, ``load_inertia`` Jl, ``load_friction`` bl, ``stiffness`` k
     and ``damping`` c of the engaged shaft, ``backlash`` (half-width of the gap,
-    rad at the load) and ``max_voltage``; ``DESCR`` gives the equations. The PWM
+    rad at the load) and ``max_voltage``; their defaults are R = 2 ohm, L = 1 mH,
+    Ke = Kt = 0.02, Jm = 1e-6 kg m^2, bm = 1e-6, n = 10, Jl = 1e-4 kg m^2,
+    bl = 5e-4, k = 1 N m/rad, c = 2e-3 N m s/rad, backlash 0.05 rad and 12 V.
+    ``DESCR`` gives the equations. The PWM
     carrier is averaged over the sample period (a mean-value model), so the
     voltage is piecewise constant. The drive is integrated with a fixed-step RK4
     scheme (at most 0.1 ms per step), because restarting
@@ -404,7 +408,7 @@ def make_dc_motor(
         full_states=full_states,
         full_state_names=list(_FULL_STATE_NAMES),
         true_params={**params, "dt": dt},
-        rigid_params=rigid_motor_params(params, dt),
+        rigid_params=_rigid_motor_params(params, dt),
         excitation_hz=excitation_hz,
         dt=dt,
         DESCR=_DESCR,

@@ -18,7 +18,7 @@ _STATE_NAMES = ["cos_theta", "sin_theta", "theta_dot"]
 _INPUT_NAMES = ["torque"]
 
 # gymnasium Pendulum-v1's constants, in PendulumModel's keyword names.
-PENDULUM_PARAMS = {
+_PENDULUM_PARAMS = {
     "mass": 1.0,
     "length": 1.0,
     "g": 10.0,
@@ -168,7 +168,7 @@ def make_pendulum(
 
     lengths = _episode_lengths(n_samples, episode_length, n_steps)
     n_episodes, n_times = len(lengths), lengths[0]
-    p = PENDULUM_PARAMS
+    p = _PENDULUM_PARAMS
 
     theta = rng.uniform(-np.pi, np.pi, n_episodes)
     theta_dot = rng.uniform(-1.0, 1.0, n_episodes)

@@ -222,8 +222,8 @@ def dc_motor_step(X, *, gain, time_constant, dt=0.001, xp=np):
 
     See Also
     --------
-    make_dc_motor : data this model is meant to be fitted to.
-    skhybrid.domain.LinearStateSpaceModel : the unstructured linear alternative.
+    make_dc_motor : Data this model is meant to be fitted to.
+    skhybrid.domain.LinearStateSpaceModel : The unstructured linear alternative.
 
     Examples
     --------
@@ -341,9 +341,9 @@ def make_dc_motor(
 
     See Also
     --------
-    dc_motor_step : a physically parametrised rigid-drive model to fit.
-    skhybrid.domain.LinearStateSpaceModel : the paper's physics model of the motor.
-    make_pendulum : the actuated pendulum.
+    dc_motor_step : A physically parametrised rigid-drive model to fit.
+    skhybrid.domain.LinearStateSpaceModel : The paper's physics model of the motor.
+    make_pendulum : The actuated pendulum.
 
     Notes
     -----

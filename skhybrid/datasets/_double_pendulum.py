@@ -144,7 +144,7 @@ def single_pendulum_step(X, *, length, damping=0.0, g=9.81, dt=0.01, xp=np):
 
     See Also
     --------
-    make_double_pendulum : data this model is meant to be fitted to.
+    make_double_pendulum : Data this model is meant to be fitted to.
 
     Examples
     --------
@@ -271,8 +271,8 @@ def make_double_pendulum(
 
     See Also
     --------
-    single_pendulum_step : the single-pendulum physics to fit to these data.
-    make_pendulum : the actuated single pendulum.
+    single_pendulum_step : The single-pendulum physics to fit to these data.
+    make_pendulum : The actuated single pendulum.
 
     Examples
     --------

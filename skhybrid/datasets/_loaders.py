@@ -100,7 +100,7 @@ def load_silverbox(path):
 
     See Also
     --------
-    load_cascaded_tanks : another measured benchmark.
+    load_cascaded_tanks : Another measured benchmark.
 
     Notes
     -----
@@ -187,7 +187,7 @@ def load_cascaded_tanks(path):
 
     See Also
     --------
-    load_silverbox : another measured benchmark.
+    load_silverbox : Another measured benchmark.
 
     Examples
     --------
@@ -266,7 +266,7 @@ def load_emps(path):
 
     See Also
     --------
-    load_silverbox : another measured benchmark.
+    load_silverbox : Another measured benchmark.
 
     Examples
     --------

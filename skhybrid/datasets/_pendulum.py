@@ -137,9 +137,9 @@ def make_pendulum(
 
     See Also
     --------
-    skhybrid.domain.PendulumModel : the same equations as a fittable model.
-    make_double_pendulum : a pendulum with an unmodelled second pendulum.
-    make_dc_motor : a DC motor with gear backlash.
+    skhybrid.domain.PendulumModel : The same equations as a fittable model.
+    make_double_pendulum : A pendulum with an unmodelled second pendulum.
+    make_dc_motor : A DC motor with gear backlash.
 
     Notes
     -----

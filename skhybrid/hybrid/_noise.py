@@ -70,9 +70,11 @@ class GaussianNoise:
     def sample(self, n_samples, random_state=None):
         """Draw ``n_samples`` independent rows, shape (n_samples, n_outputs)."""
         rng = check_random_state(random_state)
-        return rng.multivariate_normal(
-            self.mean_, self.cov_, size=n_samples, method="eigh"
-        )
+        # A symmetric square root (eigh) also handles a singular covariance.
+        w, V = np.linalg.eigh(self.cov_)
+        root = V * np.sqrt(np.clip(w, 0, None))
+        z = rng.standard_normal((n_samples, self.n_outputs_))
+        return self.mean_ + z @ root.T
 
 
 class AutoRegressiveNoise:

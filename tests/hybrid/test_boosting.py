@@ -300,8 +300,8 @@ def test_same_random_state_same_predictions(additive):
     assert stages[1][1].random_state is None  # the user's stage is left untouched
 
 
-@pytest.mark.slow
-def test_pipeline_grid_search_clone_pickle_joblib(tmp_path):
+@pytest.mark.parametrize("n_jobs", [1, pytest.param(2, marks=pytest.mark.slow)])
+def test_pipeline_grid_search_clone_pickle_joblib(tmp_path, n_jobs):
     """Done-when: Pipeline, GridSearchCV(n_jobs=2), clone, pickle and joblib."""
     rng = np.random.default_rng(0)
     X, y = make_additive(300, rng)
@@ -316,7 +316,7 @@ def test_pipeline_grid_search_clone_pickle_joblib(tmp_path):
         pipe,
         {"hybridboostingregressor__dense__objective": ["mse", "mse+ljung_box"]},
         cv=KFold(2),
-        n_jobs=2,
+        n_jobs=n_jobs,
     )
     search.fit(X, y)
     assert search.best_params_["hybridboostingregressor__dense__objective"] in (

@@ -1,0 +1,184 @@
+"""HybridEnsembleRegressor: joint training of physics parameters and a network."""
+
+import pickle
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from skhybrid.domain import LinearStateSpaceModel, ParametricModel
+from skhybrid.exceptions import TrainingDivergedError
+from skhybrid.hybrid import HybridEnsembleRegressor
+from skhybrid.neural import DenseRegressor
+
+DT = 0.05
+K_TRUE, C_TRUE = 9.81, 0.5
+
+
+def oscillator(X, *, k, c, xp=np):
+    """One Euler step of a damped pendulum: rows [theta, omega, u]."""
+    th, om, u = X[:, 0], X[:, 1], X[:, 2]
+    return xp.stack([th + DT * om, om + DT * (-k * xp.sin(th) - c * om + u)], axis=1)
+
+
+def oscillator_numpy_only(X, *, k, c):
+    return oscillator(X, k=k, c=c)
+
+
+def growth(X, *, k, xp=np):
+    return xp.exp(k * X[:, :1])
+
+
+def make_oscillator(n, seed, sigma=0.01):
+    rng = np.random.default_rng(seed)
+    X = np.column_stack(
+        [rng.uniform(-2, 2, n), rng.uniform(-3, 3, n), rng.uniform(-2, 2, n)]
+    )
+    Y = oscillator(X, k=K_TRUE, c=C_TRUE) + sigma * rng.standard_normal((n, 2))
+    return X, Y
+
+
+def ensemble(**kwargs):
+    params = dict(
+        domain=ParametricModel(
+            oscillator,
+            {"k": 1.5 * K_TRUE, "c": 0.5 * C_TRUE},  # both start 50 % off
+            bounds={"k": (0.0, 100.0), "c": (0.0, 10.0)},
+        ),
+        neural=DenseRegressor(hidden_layer_sizes=(8,)),
+        max_epochs=60,
+        batch_size=256,
+        random_state=0,
+    )
+    params.update(kwargs)
+    return HybridEnsembleRegressor(**params)
+
+
+@pytest.fixture(scope="module")
+def data():
+    return make_oscillator(800, seed=0)
+
+
+@pytest.fixture(scope="module")
+def fitted(data):
+    return ensemble().fit(*data)
+
+
+def test_done_when_recovers_theta_within_5_percent(fitted):
+    """Done-when: the physics is right, the parameters start 50 % off."""
+    assert abs(fitted.params_["k"] / K_TRUE - 1) < 0.05
+    assert abs(fitted.params_["c"] / C_TRUE - 1) < 0.05
+    assert fitted.free_params_ == ["k", "c"]
+
+
+def test_params_std_from_final_jacobian(fitted):
+    std = fitted.params_std_
+    assert set(std) == {"k", "c"}
+    assert all(np.isfinite(v) and v > 0 for v in std.values())
+    # Close to the least-squares errors of the physics alone (the network is small).
+    ls_std = fitted.domain_.params_std_
+    for name in std:
+        assert 1 / 3 < std[name] / ls_std[name] < 3
+    assert fitted.params_cov_.shape == (2, 2)
+    # The truth lies within a few standard errors.
+    assert abs(fitted.params_["k"] - K_TRUE) < 10 * std["k"] + 0.05 * K_TRUE
+
+
+def test_decompose_sums_to_predict(fitted, data):
+    X, _ = data
+    parts = fitted.decompose(X[:50])
+    assert parts.stage_names == ["domain", "neural"]
+    assert parts.domain.shape == parts.neural.shape == (50, 2)
+    assert_allclose(parts.domain + parts.neural, fitted.predict(X[:50]), atol=1e-10)
+    assert_allclose(
+        parts.domain, oscillator(X[:50], **fitted.params_), rtol=0, atol=1e-12
+    )
+
+
+def test_same_random_state_identical_predictions(data):
+    X, Y = data
+    a = ensemble(max_epochs=5).fit(X, Y).predict(X)
+    b = ensemble(max_epochs=5).fit(X, Y).predict(X)
+    c = ensemble(max_epochs=5, random_state=1).fit(X, Y).predict(X)
+    assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_bounds_respected(data):
+    X, Y = data
+    model = ensemble(
+        domain=ParametricModel(
+            oscillator, {"k": 5.0, "c": 0.25}, bounds={"k": (1.0, 8.0)}
+        ),
+        max_epochs=20,
+    ).fit(X, Y)
+    assert 1.0 <= model.params_["k"] <= 8.0  # the truth, 9.81, is out of bounds
+
+
+def test_fixed_params_held(data):
+    X, Y = data
+    model = ensemble(
+        domain=ParametricModel(oscillator, {"k": 5.0, "c": 0.25}, fixed=("c",)),
+        max_epochs=10,
+    ).fit(X, Y)
+    assert model.params_["c"] == 0.25
+    assert model.params_std_["c"] == 0.0
+    assert model.free_params_ == ["k"]
+    assert abs(model.params_["k"] / K_TRUE - 1) < 0.2
+
+
+def test_without_warm_start_starts_from_initial_values(data):
+    X, Y = data
+    model = ensemble(warm_start_domain=False, max_epochs=3).fit(X, Y)
+    assert model.params_init_ == {"k": 1.5 * K_TRUE, "c": 0.5 * C_TRUE}
+    # Training moved k towards the truth.
+    assert abs(model.params_["k"] - K_TRUE) < abs(1.5 * K_TRUE - K_TRUE)
+
+
+def test_divergence_names_lr():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0.5, 2.0, size=(100, 1))
+    y = np.exp(2.0 * X[:, 0])
+    model = HybridEnsembleRegressor(
+        # One Adam step of lr * |k| pushes k up to 1e5: exp overflows.
+        ParametricModel(growth, {"k": 1.0}),
+        DenseRegressor(hidden_layer_sizes=(4,)),
+        lr=1e5,
+        max_epochs=20,
+        warm_start_domain=False,
+        random_state=0,
+    )
+    with pytest.raises(TrainingDivergedError, match=r"lr=100000"):
+        model.fit(X, y)
+
+
+def test_domain_without_xp_raises(data):
+    X, Y = data
+    model = ensemble(domain=ParametricModel(oscillator_numpy_only, {"k": 5, "c": 1}))
+    with pytest.raises(ValueError, match="xp"):
+        model.fit(X, Y)
+
+
+def test_ljung_box_objective_on_contiguous_blocks(data):
+    X, Y = data
+    model = ensemble(objective="mse+ljung_box", ljung_box_lags=10, max_epochs=3)
+    model.fit(X, Y)
+    assert len(model.loss_curve_) == model.n_epochs_ <= 3
+    with pytest.raises(ValueError, match="ljung_box_lags=300"):
+        ensemble(objective="ljung_box", ljung_box_lags=300).fit(X, Y)
+
+
+def test_linear_state_space_domain_and_pickle():
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((300, 3))
+    Y = X[:, :2] @ np.array([[0.9, 0.1], [0.0, 0.8]]).T + 0.5 * X[:, 2:]
+    model = HybridEnsembleRegressor(
+        LinearStateSpaceModel(),
+        DenseRegressor(hidden_layer_sizes=(4,)),
+        max_epochs=5,
+        random_state=0,
+    ).fit(X, Y)
+    assert model.params_["A"].shape == (2, 2)
+    assert model.params_std_["A"].shape == (2, 2)
+    again = pickle.loads(pickle.dumps(model))
+    assert_array_equal(again.predict(X), model.predict(X))

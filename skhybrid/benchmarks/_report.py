@@ -1,0 +1,275 @@
+"""Write a run's results: CSV, JSON, the paper's figures and one HTML page."""
+
+import base64
+import csv
+import html
+import json
+import platform
+import re
+from pathlib import Path
+
+import numpy as np
+
+from skhybrid.benchmarks._claims import check_claims
+
+__all__ = ["write_report"]
+
+#: Models whose residual autocorrelation is drawn (the paper's Fig. 5 and 8).
+ACF_MODELS = ("physics", "physics+rnn (mse)", "physics+rnn (ljung-box)")
+
+
+def _slug(text):
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
+
+
+def _figures(result, out_dir):
+    """Draw the box plots and residual ACFs; return ``[(title, path)]``."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    from skhybrid.diagnostics import ResidualACFDisplay, RMSEBoxDisplay
+
+    name = result.system.name
+    figures = []
+    for split in result.test_splits:
+        disp = RMSEBoxDisplay(
+            rmse_db=result.windowed_db(split),
+            output_names=result.target_names,
+            window=result.settings.window,
+        ).plot()
+        disp.figure_.set_size_inches(4.2 * len(result.target_names), 6.5)
+        disp.figure_.suptitle(f"{result.system.title}: {split} test set")
+        path = out_dir / f"{name}_rmse_{split}.png"
+        disp.figure_.savefig(path, dpi=90)
+        plt.close(disp.figure_)
+        figures.append((f"RMSE in dB over windows, {split}", path))
+
+    split = "interpolation"
+    physics = result.system.hybrid_physics
+    for model in ACF_MODELS:
+        model = physics if model == "physics" else model
+        if model not in result.predictions[split]:
+            continue
+        residual = result.splits[split].y - result.predictions[split][model]
+        disp = ResidualACFDisplay.from_predictions(
+            result.splits[split].y,
+            result.predictions[split][model],
+            lags=max(40, result.settings.lags),
+            name=model,
+            output_names=result.target_names,
+        )
+        disp.figure_.set_size_inches(4.2 * residual.shape[1], 3.4)
+        disp.figure_.suptitle(f"Residual autocorrelation, {model} ({split})")
+        path = out_dir / f"{name}_acf_{_slug(model)}.png"
+        disp.figure_.savefig(path, dpi=90)
+        plt.close(disp.figure_)
+        figures.append((f"Residual ACF, {model}", path))
+    return figures
+
+
+def _table(rows, columns, formats=None):
+    formats = formats or {}
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
+    body = []
+    for row in rows:
+        cells = []
+        for c in columns:
+            value = row.get(c, "")
+            fmt = formats.get(c)
+            if fmt and isinstance(value, (int, float)) and value is not None:
+                value = format(value, fmt)
+            cells.append(f"<td>{html.escape(str(value))}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def _summary_rows(result):
+    """One row per model and split: median window dB per output, ratios, p-values."""
+    rows = {}
+    for r in result.rows:
+        key = (r["model"], r["split"])
+        row = rows.setdefault(key, {"model": r["model"], "split": r["split"]})
+        row[f"{r['output']} dB"] = r["median_window_rmse_db"]
+        row[f"{r['output']} /oracle"] = r["rmse_over_oracle"]
+        row[f"{r['output']} LB p"] = r["ljung_box_pvalue"]
+        row["fit s"] = r["fit_time_s"] if r["fit_time_s"] is not None else ""
+    return list(rows.values())
+
+
+def _params_rows(result):
+    rows = []
+    for model, params in result.params.items():
+        for name, p in params.items():
+            value, std = np.asarray(p["value"]), p["std"]
+            std = None if std is None else np.asarray(std)
+            if value.ndim == 0:
+                text = f"{float(value):.6g}"
+                err = "" if std is None else f"{float(std):.3g}"
+            else:
+                text = np.array2string(value, precision=4, suppress_small=True)
+                err = "" if std is None else np.array2string(std, precision=2)
+            rows.append({"model": model, "parameter": name, "value": text, "std": err})
+    return rows
+
+
+CSS = """
+body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1200px;color:#222}
+table{border-collapse:collapse;margin:0.5em 0 1.5em;font-size:0.85em}
+td,th{border:1px solid #ccc;padding:3px 7px;text-align:right}
+th{background:#eee} td:first-child,th:first-child{text-align:left}
+img{max-width:100%;border:1px solid #ddd;margin:0.3em 0 1em}
+.pass{color:#176617;font-weight:bold}.fail{color:#a31515;font-weight:bold}
+code{background:#f4f4f4;padding:1px 4px}
+"""
+
+
+def _section(result, figures, claims):
+    s = result.system
+    parts = [f"<h2>{html.escape(s.title)} (paper section {s.section})</h2>"]
+    descr = s.split_descriptions()
+    parts.append(
+        "<ul>"
+        + "".join(
+            f"<li><b>{html.escape(k)}</b>: {html.escape(v)}; "
+            f"{len(result.splits[k].y)} rows"
+            + (
+                f"; {100 * result.hull[k]:.1f} % of rows outside the convex hull "
+                "of the training rows"
+                if k in result.hull
+                else ""
+            )
+            + "</li>"
+            for k, v in descr.items()
+        )
+        + "</ul>"
+    )
+    if claims:
+        parts.append("<h3>The paper's claims on this run</h3><ul>")
+        for c in claims:
+            cls, word = ("pass", "holds") if c["passed"] else ("fail", "fails")
+            parts.append(
+                f"<li><span class='{cls}'>{word}</span>: {html.escape(c['claim'])}"
+                f" ({html.escape(c['detail'])})</li>"
+            )
+        parts.append("</ul>")
+    summary = _summary_rows(result)
+    columns = (
+        ["model", "split"]
+        + [f"{o} {k}" for k in ("dB", "/oracle", "LB p") for o in result.target_names]
+        + ["fit s"]
+    )
+    formats = {c: ".2f" for c in columns if c.endswith("dB") or "oracle" in c}
+    formats.update({c: ".3g" for c in columns if c.endswith("LB p")})
+    formats["fit s"] = ".1f"
+    parts.append(
+        "<h3>Results</h3><p>dB: median over windows of "
+        f"{result.settings.window} samples of 20 log10(RMSE); /oracle: RMSE over "
+        "the oracle's (the true equations on the noisy inputs); LB p: Ljung-Box "
+        f"p-value of the residual at {result.settings.lags} lags.</p>"
+    )
+    parts.append(_table(summary, columns, formats))
+    params = _params_rows(result)
+    if params:
+        parts.append("<h3>Fitted physical parameters</h3>")
+        parts.append(_table(params, ["model", "parameter", "value", "std"]))
+    for title, path in figures:
+        data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
+        parts.append(
+            f"<h4>{html.escape(title)}</h4>"
+            f"<img alt='{html.escape(title)}' src='data:image/png;base64,{data}'>"
+        )
+    warned = {k: v["warnings"] for k, v in result.fits.items() if v["warnings"]}
+    if warned:
+        parts.append("<h3>Warnings raised while fitting</h3><ul>")
+        for model, messages in warned.items():
+            for m in messages:
+                parts.append(f"<li>{html.escape(model)}: {html.escape(m)}</li>")
+        parts.append("</ul>")
+    return "\n".join(parts)
+
+
+def write_report(results, out_dir, *, command=None, wall_time=None):
+    """Write ``results.csv``, ``results.json``, figures and ``report.html``.
+
+    Parameters
+    ----------
+    results : list of ExperimentResult
+        One per system.
+    out_dir : str or Path
+        Folder to write to (created if missing).
+    command : str or None, default=None
+        The command line that made the run, shown in the report.
+    wall_time : float or None, default=None
+        Total seconds, shown in the report.
+
+    Returns
+    -------
+    paths : dict of str to Path
+        ``csv``, ``json``, ``html`` and ``figures`` (a list).
+    """
+    import skhybrid
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = [row for r in results for row in r.rows]
+    csv_path = out_dir / "results.csv"
+    with csv_path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+    figures, sections, systems = [], [], {}
+    for result in results:
+        figs = _figures(result, out_dir)
+        claims = check_claims(result)
+        figures.extend(path for _, path in figs)
+        sections.append(_section(result, figs, claims))
+        systems[result.system.name] = {
+            "title": result.system.title,
+            "settings": result.settings.to_dict(),
+            "wall_time_s": result.wall_time,
+            "hull_outside_share": result.hull,
+            "claims": claims,
+            "params": result.params,
+            "fits": result.fits,
+            "results": result.rows,
+        }
+    environment = {
+        "skhybrid": skhybrid.__version__,
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "command": command,
+        "wall_time_s": wall_time,
+    }
+    json_path = out_dir / "results.json"
+    json_path.write_text(
+        json.dumps({"environment": environment, "systems": systems}, indent=1)
+    )
+
+    settings = results[0].settings.to_dict()
+    settings_html = _table(
+        [{"setting": k, "value": v} for k, v in settings.items()],
+        ["setting", "value"],
+    )
+    total = "" if wall_time is None else f"<p>Total wall time: {wall_time:.1f} s.</p>"
+    cmd = (
+        ""
+        if command is None
+        else f"<p>Command: <code>{html.escape(command)}</code></p>"
+    )
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>skhybrid: hybrid models on the paper's systems</title>
+<style>{CSS}</style></head><body>
+<h1>Hybrid physics / neural / stochastic models: the paper's section 6</h1>
+<p>skhybrid {html.escape(skhybrid.__version__)}, Python
+{html.escape(platform.python_version())}.</p>{cmd}{total}
+<h3>Settings</h3>{settings_html}
+{"".join(sections)}
+</body></html>
+"""
+    html_path = out_dir / "report.html"
+    html_path.write_text(page)
+    return {"csv": csv_path, "json": json_path, "html": html_path, "figures": figures}

@@ -1,0 +1,89 @@
+"""The model zoo of the paper's section 6, built for one system and one run."""
+
+from sklearn.base import clone
+
+from skhybrid.domain import LinearStateSpaceModel
+from skhybrid.hybrid import HybridBoostingRegressor, HybridEnsembleRegressor
+from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor
+
+__all__ = ["model_zoo"]
+
+
+def _network_kwargs(settings, seed_offset):
+    return {
+        "max_epochs": settings.max_epochs,
+        "patience": settings.patience,
+        "batch_size": settings.batch_size,
+        "random_state": settings.seed + seed_offset,
+    }
+
+
+def model_zoo(system, settings):
+    """Unfitted models for ``system``, in the order the report lists them.
+
+    Parameters
+    ----------
+    system : skhybrid.benchmarks.System
+        The system (gives its physics models).
+    settings : ExperimentSettings
+        Sizes, architectures and seed.
+
+    Returns
+    -------
+    zoo : dict of str to estimator
+        Physics alone, a linear state-space model, dense, RNN and cyclic networks,
+        the hybrids physics+linear, physics+dense, physics+RNN (MSE),
+        physics+RNN (Ljung-Box), physics+cyclic, and the joint ensemble.
+    """
+    s = settings
+    physics = system.physics(s)
+    base = physics[system.hybrid_physics]
+
+    def dense(offset):
+        return DenseRegressor(s.dense_layers, **_network_kwargs(s, offset))
+
+    def rnn(offset, objective="mse"):
+        return RNNRegressor(
+            "gru",
+            hidden_size=s.rnn_hidden,
+            num_layers=s.rnn_layers,
+            n_steps=s.n_steps,
+            objective=objective,
+            ljung_box_lags=s.lags,
+            **_network_kwargs(s, offset),
+        )
+
+    def cyclic(offset):
+        return CyclicRegressor(s.dense_layers, **_network_kwargs(s, offset))
+
+    def boost(name, stage, **kwargs):
+        return HybridBoostingRegressor(
+            [("physics", clone(base)), (name, stage)],
+            n_steps=s.n_steps,
+            ljung_box_lags=s.lags,
+            random_state=s.seed,
+            **kwargs,
+        )
+
+    zoo = dict(physics)
+    zoo["linear"] = LinearStateSpaceModel(n_steps=s.n_steps)
+    zoo["dense"] = dense(1)
+    zoo["rnn"] = rnn(2)
+    zoo["cyclic"] = cyclic(3)
+    # A linear stage reads the state from the window itself, not from added columns.
+    zoo["physics+linear"] = boost(
+        "linear", LinearStateSpaceModel(n_steps=s.n_steps), stage_input="window"
+    )
+    zoo["physics+dense"] = boost("dense", dense(4))
+    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5))
+    zoo["physics+rnn (ljung-box)"] = boost("rnn", rnn(5, "mse+ljung_box"))
+    zoo["physics+cyclic"] = boost("cyclic", cyclic(6))
+    zoo["ensemble"] = HybridEnsembleRegressor(
+        clone(physics[system.ensemble_physics]),
+        dense(7),
+        max_epochs=s.max_epochs,
+        patience=s.patience,
+        batch_size=s.batch_size,
+        random_state=s.seed + 7,
+    )
+    return zoo

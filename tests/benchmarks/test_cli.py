@@ -1,0 +1,174 @@
+"""The `skhybrid` command: arguments, and the quick pendulum run end to end."""
+
+import csv
+import json
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from skhybrid.cli import main
+
+MODELS = [
+    "oracle",
+    "physics (frozen)",
+    "physics (refit)",
+    "linear",
+    "dense",
+    "rnn",
+    "cyclic",
+    "physics+linear",
+    "physics+dense",
+    "physics+rnn (mse)",
+    "physics+rnn (ljung-box)",
+    "physics+cyclic",
+    "ensemble",
+]
+
+
+def test_list(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("pendulum", "double-pendulum", "dc-motor"):
+        assert re.search(rf"^{name}\s", out, re.MULTILINE)
+
+
+def test_help_explains_run(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for word in ("--quick", "--out", "--n-jobs", "--seed", "pendulum", "all"):
+        assert word in out
+
+
+@pytest.mark.parametrize(
+    "argv, reason",
+    [
+        ([], "the following arguments are required"),
+        (["fly"], "invalid choice: 'fly'"),
+        (["run", "pendle"], "invalid choice: 'pendle'"),
+        (["run", "pendulum", "--n-jobs", "0"], "got '0'"),
+        (["run", "pendulum", "--seed", "-3"], "expected a seed >= 0, got '-3'"),
+        (["run", "pendulum", "--quik"], "unrecognized arguments: --quik"),
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line(capsys, argv, reason):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert reason in err
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("quick")
+    status = main(
+        [
+            "run",
+            "pendulum",
+            "--quick",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--n-jobs",
+            "1",
+        ]
+    )
+    assert status == 0
+    return out
+
+
+def test_quick_run_writes_results(quick_run):
+    with (quick_run / "results.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["model"] for r in rows} == set(MODELS)
+    assert {r["split"] for r in rows} == {"interpolation", "extrapolation"}
+    assert {r["output"] for r in rows} == {"cos_theta", "sin_theta", "theta_dot"}
+    assert len(rows) == len(MODELS) * 2 * 3
+    for r in rows:
+        assert float(r["rmse"]) > 0
+        assert 0 <= float(r["ljung_box_pvalue"]) <= 1
+    oracle = [r for r in rows if r["model"] == "oracle"]
+    assert all(float(r["rmse_over_oracle"]) == pytest.approx(1.0) for r in oracle)
+    # The refit physics is the true model: it matches the oracle closely.
+    refit = [r for r in rows if r["model"] == "physics (refit)"]
+    assert all(float(r["rmse_over_oracle"]) < 1.05 for r in refit)
+
+    report = json.loads((quick_run / "results.json").read_text())
+    system = report["systems"]["pendulum"]
+    assert system["settings"]["n_train"] == 3000
+    assert system["params"]["physics (refit)"]["mass"]["value"] == pytest.approx(
+        1.0, abs=0.05
+    )
+    assert system["params"]["physics (frozen)"]["mass"]["value"] == 5.0
+    assert system["params"]["physics+dense"]["length"]["value"] == 10.0
+    assert system["params"]["ensemble"]["length"]["std"] is not None
+    assert len(system["claims"]) == 2
+    assert all(isinstance(c["passed"], bool) for c in system["claims"])
+    assert system["hull_outside_share"]["extrapolation"] > 0
+    assert report["environment"]["wall_time_s"] > 0
+    for name, fit in system["fits"].items():
+        assert fit["fit_time"] >= 0, name
+
+
+def test_quick_run_writes_figures_and_self_contained_html(quick_run):
+    pngs = sorted(p.name for p in quick_run.glob("*.png"))
+    assert "pendulum_rmse_interpolation.png" in pngs
+    assert "pendulum_rmse_extrapolation.png" in pngs
+    assert sum(name.startswith("pendulum_acf_") for name in pngs) == 3
+    page = (quick_run / "report.html").read_text()
+    assert page.count("src='data:image/png;base64,") == len(pngs)
+    assert "Total wall time" in page and "Fitted physical parameters" in page
+    assert "http" not in page  # nothing fetched from elsewhere
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def test_report_renders_in_headless_chromium(quick_run, tmp_path):
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no Chromium on this machine (apt-get install chromium)")
+    probe = tmp_path / "probe.html"
+    probe.write_text(
+        (quick_run / "report.html")
+        .read_text()
+        .replace(
+            "</body>",
+            "<script>window.addEventListener('load', () => {"
+            "const ok = [...document.images].filter("
+            "i => i.complete && i.naturalWidth > 100).length;"
+            "document.body.setAttribute('data-rendered', ok);});</script></body>",
+        )
+    )
+    out = subprocess.run(
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--no-first-run",
+            f"--user-data-dir={tmp_path / 'profile'}",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            probe.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    match = re.search(r'data-rendered="(\d+)"', out.stdout)
+    assert match, out.stderr[-2000:]
+    assert int(match.group(1)) == len(list(quick_run.glob("*.png")))

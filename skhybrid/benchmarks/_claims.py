@@ -77,12 +77,15 @@ def _double_pendulum(result):
             "The physics+RNN (Ljung-Box) residual passes the whiteness test at 1 %",
             np.all(test.pvalue > 0.01),
             "p-values "
-            + ", ".join(f"{n}: {p:.3g}" for n, p in zip(names, test.pvalue)),
+            + ", ".join(
+                f"{n}: {p:.3g}" for n, p in zip(names, test.pvalue, strict=True)
+            ),
         ),
         _claim(
             "Its standard deviation is within 1.15x the injected noise",
             np.all(ratio <= 1.15),
-            "std / noise " + ", ".join(f"{n}: {r:.3f}" for n, r in zip(names, ratio)),
+            "std / noise "
+            + ", ".join(f"{n}: {r:.3f}" for n, r in zip(names, ratio, strict=True)),
         ),
     ]
 

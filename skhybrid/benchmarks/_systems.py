@@ -32,7 +32,7 @@ class System:
     ensemble_physics = "physics"
 
     def make_splits(self, settings):
-        """Return ``{"train": Bunch, "interpolation": Bunch[, "extrapolation": ...]}``."""
+        """Return ``{"train": Bunch, "interpolation": Bunch, ...}`` (test splits)."""
         raise NotImplementedError
 
     def physics(self, settings):

@@ -354,6 +354,19 @@ class ResidualACFDisplay:
 # --------------------------------------------------------------------------------------
 # RMSE box plots
 # --------------------------------------------------------------------------------------
+def _check_whis(whis):
+    try:
+        low, high = (float(v) for v in whis)
+    except (TypeError, ValueError):
+        low = high = None
+    if low is None or not 0.0 <= low < 25.0 or not 75.0 < high <= 100.0:
+        raise ValueError(
+            "whis must be a pair of percentiles (low, high) with 0 <= low < 25 and "
+            f"75 < high <= 100; got whis={whis!r}."
+        )
+    return low, high
+
+
 def _check_models(mapping, name):
     if not isinstance(mapping, Mapping) or len(mapping) == 0:
         raise TypeError(
@@ -390,7 +403,7 @@ class RMSEBoxDisplay:
     figure_ : matplotlib Figure
         Figure holding the panels.
     boxes_ : list of dict
-        What ``Axes.boxplot`` returned for each panel (keys ``"boxes"``,
+        What ``Axes.bxp`` returned for each panel (keys ``"boxes"``,
         ``"medians"``, ``"whiskers"``, ``"means"``, ...).
 
     See Also
@@ -417,16 +430,19 @@ class RMSEBoxDisplay:
         self.output_names = output_names
         self.window = window
 
-    def plot(self, ax=None, *, boxplot_kwargs=None, ylabel=None):
+    def plot(self, ax=None, *, whis=(5, 95), bxp_kwargs=None, ylabel=None):
         """Draw the panels.
 
         Parameters
         ----------
         ax : matplotlib Axes, array of Axes or None, default=None
             One Axes per output; ``None`` makes a new figure.
-        boxplot_kwargs : dict or None, default=None
-            Passed to ``Axes.boxplot``, over the defaults ``whis=(5, 95)``,
-            ``showmeans=True`` (a triangle) and ``showfliers=False``.
+        whis : tuple of (float, float), default=(5, 95)
+            Percentiles at which the whiskers end (exactly, not at the nearest
+            data point).
+        bxp_kwargs : dict or None, default=None
+            Passed to ``Axes.bxp``, over the defaults ``showmeans=True`` (a
+            triangle), ``showfliers=False`` and ``patch_artist=True``.
         ylabel : str or None, default=None
             Label of the y axes.
 
@@ -435,10 +451,16 @@ class RMSEBoxDisplay:
         display : RMSEBoxDisplay
         """
         models = _check_models(self.rmse_db, "rmse_db")
+        low, high = _check_whis(whis)
         values = {}
         for model, arr in models.items():
             arr = np.asarray(arr, dtype=float)
             values[model] = arr[:, None] if arr.ndim == 1 else arr
+            if values[model].ndim != 2 or values[model].shape[0] == 0:
+                raise ValueError(
+                    f"rmse_db[{model!r}] must have shape (n_windows, n_outputs) with "
+                    f"n_windows >= 1; got shape {np.shape(arr)}."
+                )
             if not np.all(np.isfinite(values[model])):
                 raise ValueError(
                     f"rmse_db[{model!r}] has non-finite values; an exact prediction "
@@ -458,7 +480,6 @@ class RMSEBoxDisplay:
         )
         axes = axes.ravel()
         kwargs = {
-            "whis": (5, 95),
             "showmeans": True,
             "showfliers": False,
             "patch_artist": True,
@@ -471,7 +492,7 @@ class RMSEBoxDisplay:
             },
             "medianprops": {"color": "black", "linewidth": 1.5},
             "boxprops": {"facecolor": "C0", "alpha": 0.6},
-            **(boxplot_kwargs or {}),
+            **(bxp_kwargs or {}),
         }
         if ylabel is None:
             ylabel = "RMSE [dB]"
@@ -481,8 +502,23 @@ class RMSEBoxDisplay:
         positions = np.arange(1, len(labels) + 1)
         self.boxes_ = []
         for j, axis in enumerate(axes):
-            data = [values[model][:, j] for model in labels]
-            self.boxes_.append(axis.boxplot(data, positions=positions, **kwargs))
+            box_stats = []
+            for model in labels:
+                scores = values[model][:, j]
+                q = np.percentile(scores, [low, 25, 50, 75, high])
+                box_stats.append(
+                    {
+                        "label": model,
+                        "whislo": q[0],
+                        "q1": q[1],
+                        "med": q[2],
+                        "q3": q[3],
+                        "whishi": q[4],
+                        "mean": scores.mean(),
+                        "fliers": scores[(scores < q[0]) | (scores > q[4])],
+                    }
+                )
+            self.boxes_.append(axis.bxp(box_stats, positions=positions, **kwargs))
             axis.set_xticks(positions)
             axis.set_xticklabels(labels, rotation=45, ha="right")
             axis.set_title(names[j], fontsize="medium")
@@ -496,7 +532,14 @@ class RMSEBoxDisplay:
 
     @classmethod
     def from_rmse_db(
-        cls, rmse_db, *, output_names=None, window=None, ax=None, boxplot_kwargs=None
+        cls,
+        rmse_db,
+        *,
+        output_names=None,
+        window=None,
+        ax=None,
+        whis=(5, 95),
+        bxp_kwargs=None,
     ):
         """Plot precomputed per-window scores.
 
@@ -511,7 +554,9 @@ class RMSEBoxDisplay:
             Window length, shown in the y label.
         ax : matplotlib Axes, array of Axes or None, default=None
             One Axes per output.
-        boxplot_kwargs : dict or None, default=None
+        whis : tuple of (float, float), default=(5, 95)
+            Percentiles at the whisker ends.
+        bxp_kwargs : dict or None, default=None
             See :meth:`plot`.
 
         Returns
@@ -519,7 +564,7 @@ class RMSEBoxDisplay:
         display : RMSEBoxDisplay
         """
         disp = cls(rmse_db=rmse_db, output_names=output_names, window=window)
-        return disp.plot(ax=ax, boxplot_kwargs=boxplot_kwargs)
+        return disp.plot(ax=ax, whis=whis, bxp_kwargs=bxp_kwargs)
 
     @classmethod
     def from_predictions(
@@ -530,7 +575,8 @@ class RMSEBoxDisplay:
         window=100,
         output_names=None,
         ax=None,
-        boxplot_kwargs=None,
+        whis=(5, 95),
+        bxp_kwargs=None,
     ):
         """Score each model's predictions over consecutive windows and plot them.
 
@@ -546,7 +592,9 @@ class RMSEBoxDisplay:
             Panel titles.
         ax : matplotlib Axes, array of Axes or None, default=None
             One Axes per output.
-        boxplot_kwargs : dict or None, default=None
+        whis : tuple of (float, float), default=(5, 95)
+            Percentiles at the whisker ends.
+        bxp_kwargs : dict or None, default=None
             See :meth:`plot`.
 
         Returns
@@ -566,7 +614,8 @@ class RMSEBoxDisplay:
             output_names=output_names,
             window=window,
             ax=ax,
-            boxplot_kwargs=boxplot_kwargs,
+            whis=whis,
+            bxp_kwargs=bxp_kwargs,
         )
 
     @classmethod
@@ -579,7 +628,8 @@ class RMSEBoxDisplay:
         window=100,
         output_names=None,
         ax=None,
-        boxplot_kwargs=None,
+        whis=(5, 95),
+        bxp_kwargs=None,
     ):
         """Score fitted estimators on ``X, y`` over consecutive windows and plot.
 
@@ -591,7 +641,7 @@ class RMSEBoxDisplay:
             Test rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        window, output_names, ax, boxplot_kwargs
+        window, output_names, ax, whis, bxp_kwargs
             See :meth:`from_predictions`.
 
         Returns
@@ -612,7 +662,8 @@ class RMSEBoxDisplay:
             window=window,
             output_names=output_names,
             ax=ax,
-            boxplot_kwargs=boxplot_kwargs,
+            whis=whis,
+            bxp_kwargs=bxp_kwargs,
         )
 
 

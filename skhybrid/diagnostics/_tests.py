@@ -10,6 +10,7 @@ from numbers import Integral, Real
 
 import numpy as np
 from scipy import stats
+from scipy.signal import lfilter
 from sklearn.utils import check_array
 from statsmodels.stats.diagnostic import acorr_ljungbox
 from statsmodels.tsa.stattools import acf as _sm_acf
@@ -200,13 +201,18 @@ class CrossCorrelationResult:
     band : ndarray of shape (n_outputs, n_inputs)
         Half-width of the pointwise confidence band around zero at level ``alpha``.
     statistic : ndarray of shape (n_outputs, n_inputs)
-        Portmanteau statistic ``S = n * sum_k ccf_k ** 2 / factor`` over all lags.
+        Portmanteau statistic ``S = n * sum_k ccf_k ** 2`` over all lags (divided
+        by Bartlett's factor without prewhitening).
     pvalue : ndarray of shape (n_outputs, n_inputs)
         Chi-squared p-value of ``S`` with ``2 * n_lags + 1`` degrees of freedom.
     alpha : float
         Significance level of the band and of :attr:`passed`.
     n_samples : int
-        Length of the series.
+        Length of the series correlated (after prewhitening, if any).
+    residual_ar_order : ndarray of shape (n_outputs,)
+        Order of each residual's prewhitening AR filter (0: none).
+    input_ar_order : ndarray of shape (n_inputs,)
+        Order of each input's prewhitening AR filter (0: none).
 
     Examples
     --------
@@ -226,6 +232,8 @@ class CrossCorrelationResult:
     pvalue: np.ndarray
     alpha: float
     n_samples: int
+    residual_ar_order: np.ndarray
+    input_ar_order: np.ndarray
 
     @property
     def df(self):
@@ -415,7 +423,52 @@ def _cross_correlation(e, u, lags):
     return np.where(scale > 0, out / safe, 0.0)
 
 
-def residual_input_correlation(residuals, inputs, lags=20, *, alpha=0.05):
+def _levinson_orders(rho, max_order):
+    """AR coefficients of every order 0..max_order from an autocorrelation.
+
+    Levinson-Durbin recursion; ``variance[p]`` is the innovation variance of the
+    order-``p`` fit relative to the series' variance.
+    """
+    coefs = [np.zeros(0)]
+    variance = [1.0]
+    phi = np.zeros(0)
+    v = 1.0
+    for k in range(1, max_order + 1):
+        if v <= 0.0:  # a perfectly predictable series: stop at the exact order
+            break
+        kappa = (rho[k] - phi @ rho[k - 1 : 0 : -1]) / v
+        phi = np.concatenate([phi - kappa * phi[::-1], [kappa]])
+        v = v * (1.0 - kappa**2)
+        coefs.append(phi)
+        variance.append(v)
+    return coefs, np.asarray(variance)
+
+
+def _prewhiten(x, max_order):
+    """Residuals of an AR fit per column (order by AIC), and the orders chosen.
+
+    A linear filter applied to each series keeps independent series independent,
+    while making each white: the condition under which the cross-correlations at
+    different lags are uncorrelated and the portmanteau test holds its level.
+    """
+    n = x.shape[0]
+    xc = x - x.mean(axis=0)
+    rho = autocorrelation(xc, max_order)
+    out = np.empty_like(xc)
+    orders = np.zeros(x.shape[1], dtype=int)
+    for j in range(x.shape[1]):
+        coefs, variance = _levinson_orders(rho[:, j], max_order)
+        with np.errstate(divide="ignore"):
+            aic = n * np.log(variance) + 2.0 * np.arange(variance.shape[0])
+        p = int(np.argmin(aic))
+        orders[j] = p
+        out[:, j] = lfilter(np.concatenate([[1.0], -coefs[p]]), [1.0], xc[:, j])
+    return out, orders
+
+
+def residual_input_correlation(
+    residuals, inputs, lags=20, *, alpha=0.05, prewhiten=True, max_ar_order=10
+):
     """Cross-correlation of residuals with inputs: the independence test.
 
     A model that captured the input-to-output dynamics leaves residuals that do not
@@ -433,6 +486,14 @@ def residual_input_correlation(residuals, inputs, lags=20, *, alpha=0.05):
         Lags ``-lags, ..., lags`` are examined; at most ``n_samples - 1``.
     alpha : float, default=0.05
         Level of the pointwise band and of the portmanteau test.
+    prewhiten : bool, default=True
+        Whether to filter each residual and input series through its own
+        autoregressive fit before correlating them (see Notes). ``True`` makes
+        the test hold its level for coloured residuals and inputs; ``False``
+        correlates the raw series, which is easier to read but exact only when
+        one of the two is white.
+    max_ar_order : int, default=10
+        Largest order of the prewhitening AR fits (chosen per series by AIC).
 
     Returns
     -------
@@ -448,16 +509,26 @@ def residual_input_correlation(residuals, inputs, lags=20, *, alpha=0.05):
     Notes
     -----
     ``ccf_k = sum_t e_c(t + k) u_c(t) / (n s_e s_u)`` with demeaned series and
-    standard deviations over ``n``. For independent series its variance is about
-    ``factor / n`` with Bartlett's ``factor = 1 + 2 sum_{j=1..lags} rho_e(j)
-    rho_u(j)`` (1 when either series is white); ``factor`` is floored at 1 so the
-    band is never narrower than the white-noise band ``z_{1-alpha/2} /
-    sqrt(n)``. The verdict is the portmanteau test ``S = n sum_k ccf_k^2 / factor``
-    against chi-squared with ``2 lags + 1`` degrees of freedom (Haugh's test), which
-    holds its level over all lags at once; counting lags outside the pointwise band
-    does not (with 41 lags, some excursion happens most of the time by chance). The
-    level is exact when the residuals or the inputs are white and approximate when
-    both are strongly coloured.
+    standard deviations over ``n``. The verdict is Haugh's portmanteau test ``S = n
+    sum_k ccf_k^2`` against chi-squared with ``2 lags + 1`` degrees of freedom,
+    which holds its level over all lags at once; counting lags outside the
+    pointwise band does not (with 41 lags, some excursion happens most of the time
+    by chance).
+
+    The test needs white series: the cross-correlations of two independent but
+    coloured series are correlated from lag to lag, which inflates ``S``. With
+    ``prewhiten=True`` each series is first replaced by the residuals of its own
+    AR fit (Yule-Walker, order by AIC up to ``max_ar_order``; the first
+    ``max(orders)`` samples are dropped), as in Box and Jenkins' identification
+    of transfer functions. Filtering keeps independent series independent and
+    leaves a lagged dependence visible. With ``prewhiten=False`` the band uses
+    Bartlett's variance ``factor / n``, ``factor = 1 + 2 sum_{j=1..lags} rho_e(j)
+    rho_u(j)`` (floored at 1), and ``S`` is divided by ``factor``.
+
+    References
+    ----------
+    L. D. Haugh, "Checking the independence of two covariance-stationary time
+    series: a univariate residual cross-correlation approach", JASA 71, 1976.
 
     Examples
     --------
@@ -479,13 +550,31 @@ def residual_input_correlation(residuals, inputs, lags=20, *, alpha=0.05):
             f"inputs must have one row per residual; got inputs with "
             f"{u.shape[0]} rows and residuals with {e.shape[0]}."
         )
-    n_samples = e.shape[0]
-    lags = _check_lags(lags, n_samples)
+    lags = _check_lags(lags, e.shape[0])
     alpha = _check_alpha(alpha)
+    if not isinstance(prewhiten, (bool, np.bool_)):
+        raise TypeError(f"prewhiten must be True or False; got {prewhiten!r}.")
+    max_ar_order = _check_int(max_ar_order, "max_ar_order", low=0)
+    e_orders = np.zeros(e.shape[1], dtype=int)
+    u_orders = np.zeros(u.shape[1], dtype=int)
+    if prewhiten and max_ar_order > 0:
+        if max_ar_order + lags >= e.shape[0]:
+            raise ValueError(
+                f"max_ar_order + lags must be smaller than n_samples={e.shape[0]}; "
+                f"got max_ar_order={max_ar_order} and lags={lags}."
+            )
+        e, e_orders = _prewhiten(e, max_ar_order)
+        u, u_orders = _prewhiten(u, max_ar_order)
+        start = int(max(e_orders.max(), u_orders.max()))
+        e, u = e[start:], u[start:]
+    n_samples = e.shape[0]
     ccf = _cross_correlation(e, u, lags)
-    rho_e = autocorrelation(e, lags)[1:]
-    rho_u = autocorrelation(u, lags)[1:]
-    factor = np.maximum(1.0 + 2.0 * rho_e.T @ rho_u, 1.0)
+    if prewhiten:
+        factor = np.ones((e.shape[1], u.shape[1]))
+    else:
+        rho_e = autocorrelation(e, lags)[1:]
+        rho_u = autocorrelation(u, lags)[1:]
+        factor = np.maximum(1.0 + 2.0 * rho_e.T @ rho_u, 1.0)
     band = stats.norm.ppf(1.0 - alpha / 2.0) * np.sqrt(factor / n_samples)
     statistic = n_samples * np.sum(ccf**2, axis=0) / factor
     pvalue = stats.chi2.sf(statistic, df=ccf.shape[0])
@@ -497,6 +586,8 @@ def residual_input_correlation(residuals, inputs, lags=20, *, alpha=0.05):
         pvalue=pvalue,
         alpha=alpha,
         n_samples=n_samples,
+        residual_ar_order=e_orders,
+        input_ar_order=u_orders,
     )
 
 

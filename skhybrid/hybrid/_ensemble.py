@@ -295,9 +295,9 @@ class HybridEnsembleRegressor(RegressorMixin, BaseEstimator):
             module = self.neural._make_module(n_features, self.n_outputs_)
         module = module.double()
 
-        Xt = torch.as_tensor(X)
+        Xt = torch.tensor(X)
         Xs = torch.as_tensor((X - self.x_mean_) / self.x_scale_)
-        Yt = torch.as_tensor(Y)
+        Yt = torch.tensor(Y)
         scale = torch.as_tensor(self.y_scale_)
         z = torch.nn.Parameter(torch.as_tensor(self._transform.z0.copy()))
         groups = [
@@ -382,7 +382,7 @@ class HybridEnsembleRegressor(RegressorMixin, BaseEstimator):
         spec = self._spec
         if spec.n_free == 0:
             return spec.to_dict(np.zeros(0), fixed_value=0.0), np.zeros((0, 0))
-        Xt = torch.as_tensor(X)
+        Xt = torch.tensor(X)
         target = torch.as_tensor(Y - self._network_part(X))
         xp = _torch_namespace(Xt)
 

@@ -422,3 +422,12 @@ def test_cyclic_stage_inverse_predict():
 def test_inverse_predict_without_cyclic_stage_raises(fitted):
     with pytest.raises(ValueError, match="CyclicRegressor"):
         fitted.inverse_predict(np.zeros(3))
+
+
+# -- the decomposition Display (skhybrid.diagnostics) relies on decompose ------------
+def test_decomposition_display_from_booster(fitted, additive, pyplot):
+    from skhybrid.diagnostics import DecompositionDisplay
+
+    _, (Xt, yt) = additive
+    display = DecompositionDisplay.from_estimator(fitted, Xt[:100], yt[:100])
+    assert {"physics", "dense", "total"} <= set(display.lines_)

@@ -182,3 +182,11 @@ def test_linear_state_space_domain_and_pickle():
     assert model.params_std_["A"].shape == (2, 2)
     again = pickle.loads(pickle.dumps(model))
     assert_array_equal(again.predict(X), model.predict(X))
+
+
+def test_decomposition_display_from_ensemble(fitted, data, pyplot):
+    from skhybrid.diagnostics import DecompositionDisplay
+
+    X, Y = data
+    display = DecompositionDisplay.from_estimator(fitted, X[:100], Y[:100])
+    assert {"domain", "neural", "total"} <= set(display.lines_)

@@ -1,7 +1,8 @@
 """The Ljung-Box statistic, for NumPy arrays and torch tensors from one implementation.
 
-The autocorrelation is computed by FFT, so the cost grows as O(n log n) in the length
-of the series, not O(n * lags), and the torch version is differentiable.
+The autocorrelation is computed by FFT (overlap-save blocks for long series), so the
+cost grows as O(n log n) at most in the length of the series, not O(n * lags), and
+the torch version is differentiable.
 """
 
 from numbers import Integral
@@ -46,6 +47,43 @@ def _check_series(residuals, lags, xp):
         )
 
 
+def _block_size(nlags):
+    """FFT length of the blocked autocovariance: short enough to stay in cache."""
+    return max(256, 1 << (8 * (nlags + 1) - 1).bit_length())
+
+
+def _autocovariance(centered, nlags, xp):
+    """Sums ``sum_t x_t x_{t+k}`` for k = 0..nlags, along axis 0, by FFT.
+
+    Long series are cut into blocks of ``B = M - nlags`` samples; each block is
+    correlated with itself extended by the next ``nlags`` samples through FFTs of
+    length ``M`` (overlap-save), and the blocks' sums are added. That costs
+    O(n log M) with ``M`` a few times ``nlags`` (at most O(n log n)), and many short
+    transforms run several times faster than one transform of the whole series.
+    Short series take one zero-padded transform.
+    """
+    n = centered.shape[0]
+    M = _block_size(nlags)
+    if n < 4 * M:
+        # Zero padding to n + nlags is enough: a circular lag k <= nlags then wraps
+        # only onto padded zeros, so the circular and the linear correlation agree.
+        nfft = _fast_length(n + nlags)
+        spectrum = xp.fft.rfft(centered, n=nfft, axis=0)
+        power = xp.real(spectrum) ** 2 + xp.imag(spectrum) ** 2
+        return xp.fft.irfft(power, n=nfft, axis=0)[: nlags + 1, ...]
+    B = M - nlags
+    m = -(-n // B)  # blocks holding the series
+    pad = (m + 1) * B - n  # one more block of zeros supplies the last extension
+    padded = xp.concat([centered, xp.zeros_like(centered[:pad, ...])], axis=0)
+    blocks = xp.reshape(padded, (m + 1, B, *centered.shape[1:]))
+    head = blocks[:m, ...]
+    extended = xp.concat([head, blocks[1:, :nlags, ...]], axis=1)
+    spec_head = xp.fft.rfft(head, n=M, axis=1)
+    spec_ext = xp.fft.rfft(extended, n=M, axis=1)
+    cross = xp.fft.irfft(xp.conj(spec_head) * spec_ext, n=M, axis=1)
+    return xp.sum(cross[:, : nlags + 1, ...], axis=0)
+
+
 def autocorrelation(residuals, nlags):
     """Sample autocorrelation of a series, per column, by FFT.
 
@@ -75,14 +113,8 @@ def autocorrelation(residuals, nlags):
     """
     xp = get_namespace(residuals)
     _check_series(residuals, nlags, xp)
-    n = residuals.shape[0]
     centered = residuals - xp.mean(residuals, axis=0)
-    # Zero padding to n + nlags is enough: a circular lag k <= nlags then wraps
-    # only onto padded zeros, so the circular and the linear correlation agree.
-    nfft = _fast_length(n + nlags)
-    spectrum = xp.fft.rfft(centered, n=nfft, axis=0)
-    power = xp.real(spectrum) ** 2 + xp.imag(spectrum) ** 2
-    acov = xp.fft.irfft(power, n=nfft, axis=0)[: nlags + 1, ...]
+    acov = _autocovariance(centered, nlags, xp)
     variance = acov[0:1, ...]
     # A constant series has variance 0 and zero covariances: report rho = 0 there
     # (and keep gradients finite) rather than 0 / 0.

@@ -28,9 +28,12 @@ class RNNRegressor(BaseNeuralRegressor):
         :class:`torch.nn.RNN` (tanh).
     hidden_size : int, default=50
         Hidden units per recurrent layer (the paper: 50).
-    num_layers : int, default=10
-        Stacked recurrent layers (the paper: 10). Deep stacks train slowly; 1 to 3
-        layers are often enough.
+    num_layers : int, default=2
+        Stacked recurrent layers. The paper used 10; with ``lr=0.01`` a stack of
+        10 GRU layers trained poorly in our tests (held-out R^2 of 0.32 against
+        0.993 with 2 layers on ``y = x sin(3x)``, 5,000 rows), so the default is 2.
+        ``num_layers=10, lr=0.001`` reproduces the paper's architecture (R^2
+        0.993 there, about 6 times slower).
     n_steps : int, default=1
         Time steps per row; ``n_features`` must be a multiple of it.
     objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
@@ -126,7 +129,7 @@ class RNNRegressor(BaseNeuralRegressor):
         cell="gru",
         *,
         hidden_size=50,
-        num_layers=10,
+        num_layers=2,
         n_steps=1,
         objective="mse",
         ljung_box_lags=20,

@@ -26,7 +26,7 @@ STAGE_INPUTS = ("window", "window+prediction", "window+prediction+residuals")
 _RESERVED_NAMES = ("stage_names", "total")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StageWhiteness:
     """Ljung-Box test of the training residual after each stage, per output.
 
@@ -34,7 +34,7 @@ class StageWhiteness:
     lag ``lags``, on the residual of every training row (validation slice included)
     in the order given to ``fit``.
 
-    Attributes
+    Parameters
     ----------
     stage_names : tuple of str
         Names of the kept stages, in order; row ``i`` of ``statistic`` and
@@ -168,8 +168,8 @@ class HybridBoostingRegressor(RegressorMixin, _BaseComposition):
 
     See Also
     --------
-    HybridEnsembleRegressor : the parallel composition, trained jointly.
-    skhybrid.domain.DomainModel : physics stages.
+    HybridEnsembleRegressor : The parallel composition, trained jointly.
+    skhybrid.domain.DomainModel : Physics stages.
 
     Notes
     -----
@@ -256,7 +256,7 @@ class HybridBoostingRegressor(RegressorMixin, _BaseComposition):
 
     # -- parameters of the stages --------------------------------------------------
     def get_params(self, deep=True):
-        """Parameters of the booster and, with ``deep``, of its stages.
+        """Get the parameters of the booster and, with ``deep``, of its stages.
 
         Parameters
         ----------

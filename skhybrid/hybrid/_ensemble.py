@@ -117,7 +117,7 @@ class HybridEnsembleRegressor(RegressorMixin, BaseEstimator):
 
     See Also
     --------
-    HybridBoostingRegressor : the sequential composition.
+    HybridBoostingRegressor : The sequential composition.
 
     Notes
     -----
@@ -439,7 +439,7 @@ class HybridEnsembleRegressor(RegressorMixin, BaseEstimator):
         )
 
     def predict(self, X):
-        """Physics plus network prediction.
+        """Predict the physics part plus the network part.
 
         Parameters
         ----------

@@ -27,10 +27,6 @@ NOISE_MODELS = ("gaussian", "ar")
 class GaussianNoise:
     """Independent Gaussian noise with a mean and a covariance across outputs.
 
-    Parameters
-    ----------
-    None
-
     Attributes
     ----------
     mean_ : ndarray of shape (n_outputs,)
@@ -51,7 +47,18 @@ class GaussianNoise:
     """
 
     def fit(self, residuals):
-        """Estimate the mean and covariance of ``residuals`` (n_samples, n_outputs)."""
+        """Estimate the mean and the covariance across outputs of ``residuals``.
+
+        Parameters
+        ----------
+        residuals : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Final residuals of a model, in time order.
+
+        Returns
+        -------
+        self : object
+            The fitted noise model.
+        """
         r = _as_2d(residuals)
         if r.shape[0] < 2:
             raise ValueError(
@@ -64,11 +71,30 @@ class GaussianNoise:
         return self
 
     def std(self):
-        """Standard deviation of each output, shape (n_outputs,)."""
+        """Return the standard deviation of each output.
+
+        Returns
+        -------
+        std : ndarray of shape (n_outputs,)
+            Standard deviation of each output.
+        """
         return np.sqrt(np.clip(np.diag(self.cov_), 0, None))
 
     def sample(self, n_samples, random_state=None):
-        """Draw ``n_samples`` independent rows, shape (n_samples, n_outputs)."""
+        """Draw ``n_samples`` independent rows.
+
+        Parameters
+        ----------
+        n_samples : int
+            Number of rows to draw.
+        random_state : int, RandomState instance or None, default=None
+            Seed of the draw.
+
+        Returns
+        -------
+        noise : ndarray of shape (n_samples, n_outputs)
+            The draws.
+        """
         rng = check_random_state(random_state)
         # A symmetric square root (eigh) also handles a singular covariance.
         w, V = np.linalg.eigh(self.cov_)
@@ -128,7 +154,18 @@ class AutoRegressiveNoise:
         self.ic = ic
 
     def fit(self, residuals):
-        """Select the order and fit one AR model per output of ``residuals``."""
+        """Select the order and fit one AR model per output of ``residuals``.
+
+        Parameters
+        ----------
+        residuals : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Final residuals of a model, in time order.
+
+        Returns
+        -------
+        self : object
+            The fitted noise model.
+        """
         from statsmodels.tsa.ar_model import AutoReg, ar_select_order
 
         r = _as_2d(residuals)
@@ -176,11 +213,16 @@ class AutoRegressiveNoise:
         return poly
 
     def std(self):
-        """Stationary (marginal) standard deviation of each output, (n_outputs,).
+        """Return the stationary (marginal) standard deviation of each output.
 
         The standard deviation of the process itself, not of its innovations: the
         uncertainty of one row when the residuals of neighbouring rows are unknown.
         Infinite for a non-stationary fit.
+
+        Returns
+        -------
+        std : ndarray of shape (n_outputs,)
+            Standard deviation of each output.
         """
         from statsmodels.tsa.arima_process import arma_acovf
 
@@ -199,6 +241,18 @@ class AutoRegressiveNoise:
 
         The simulation starts after a burn-in of 200 steps plus the largest lag,
         so it starts from (close to) the stationary distribution.
+
+        Parameters
+        ----------
+        n_samples : int
+            Number of rows to draw.
+        random_state : int, RandomState instance or None, default=None
+            Seed of the draw.
+
+        Returns
+        -------
+        noise : ndarray of shape (n_samples, n_outputs)
+            The draws.
         """
         from statsmodels.tsa.arima_process import ArmaProcess
 

@@ -70,6 +70,11 @@ def _output_names(names, n_outputs):
     return names
 
 
+def _format_pvalue(p):
+    """``p = 0.0312``; tiny values as ``p < 0.0001`` (their digits mean nothing)."""
+    return "p < 0.0001" if p < 1e-4 else f"p = {p:.3g}"
+
+
 def _predictions_like(y_pred, y_true, name):
     pred = _as_2d(y_pred, name)
     if pred.shape != y_true.shape:
@@ -88,8 +93,8 @@ class ResidualACFDisplay:
 
     The paper's Fig. 5 and 8: one panel per output, the autocorrelation as stems
     with the zero lag suppressed, a shaded confidence band around zero, and the
-    Ljung-Box p-value in each title. White residuals keep (almost) every stem
-    inside the band and have a large p-value.
+    Ljung-Box p-value in each title (``p < 0.0001`` below that). White residuals
+    keep (almost) every stem inside the band and have a large p-value.
 
     Build it with :meth:`from_estimator` or :meth:`from_predictions`; use the
     constructor to plot values computed elsewhere.
@@ -225,7 +230,7 @@ class ResidualACFDisplay:
                 if self.ljung_box_lags is None
                 else (f"Ljung-Box({self.ljung_box_lags})")
             )
-            title = f"{names[j]}: {lb} p = {pvalue[j]:.3g}"
+            title = f"{names[j]}: {lb} {_format_pvalue(pvalue[j])}"
             if name:
                 title = f"{name}\n{title}"
             axis.set_title(title, fontsize="medium")

@@ -38,7 +38,8 @@ def test_residual_acf_display_from_predictions(pyplot, rng):
     for j, (ax, name) in enumerate(zip(disp.axes_, ["theta", "omega"], strict=True)):
         title = ax.get_title()
         assert "physics" in title and name in title
-        assert f"p = {pvalues[j]:.3g}" in title
+        expected = "p < 0.0001" if pvalues[j] < 1e-4 else f"p = {pvalues[j]:.3g}"
+        assert expected in title
         assert isinstance(disp.bands_[j], PolyCollection)
         assert disp.bands_[j] in ax.collections
         assert isinstance(disp.stems_[j], LineCollection)
@@ -75,6 +76,10 @@ def test_residual_acf_display_plot_from_constructor(pyplot):
     ).plot()
     assert len(disp.stems_[0].get_segments()) == 3  # lag 0 suppressed
     assert disp.ax_.get_title() == "y: Ljung-Box p = 0.001"
+    disp = ResidualACFDisplay(
+        lags=np.arange(1, 3), acf=np.ones(2), band=np.ones(2), pvalue=[1e-30]
+    ).plot()
+    assert disp.ax_.get_title() == "y: Ljung-Box p < 0.0001"
 
 
 # ----------------------------------------------------------------------------------

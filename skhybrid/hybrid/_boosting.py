@@ -44,7 +44,7 @@ class StageWhiteness:
     statistic : ndarray of shape (n_stages, n_outputs)
         Ljung-Box ``Q`` statistic.
     pvalue : ndarray of shape (n_stages, n_outputs)
-        p-value of ``Q`` under the null hypothesis of white residuals; a small
+        The p-value of ``Q`` under the null hypothesis of white residuals; a small
         value means the stage left predictable structure.
     """
 

@@ -5,8 +5,11 @@ import pickle
 import joblib
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.linear_model import Ridge
 from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.neighbors import KNeighborsRegressor
 from sklearn.pipeline import make_pipeline
@@ -431,3 +434,38 @@ def test_decomposition_display_from_booster(fitted, additive, pyplot):
     _, (Xt, yt) = additive
     display = DecompositionDisplay.from_estimator(fitted, Xt[:100], yt[:100])
     assert {"physics", "dense", "total"} <= set(display.lines_)
+
+
+# -- invariants ----------------------------------------------------------------------
+@settings(max_examples=25, deadline=None)
+@given(
+    n_steps=st.integers(1, 3),
+    n_outputs=st.integers(1, 2),
+    n_inputs=st.integers(0, 2),
+    stage_input=st.sampled_from(
+        ["window", "window+prediction", "window+prediction+residuals"]
+    ),
+    seed=st.integers(0, 2**16),
+)
+def test_decompose_invariants(n_steps, n_outputs, n_inputs, stage_input, seed):
+    """Parts sum to predict, staged_predict ends at predict, row order is free."""
+    rng = np.random.default_rng(seed)
+    width = n_outputs + n_inputs
+    X = rng.standard_normal((60, n_steps * width))
+    y = rng.standard_normal((60, n_outputs))
+    y = y[:, 0] if n_outputs == 1 else y
+    booster = HybridBoostingRegressor(
+        [
+            ("physics", LinearStateSpaceModel(n_steps=n_steps)),
+            ("ridge", Ridge(alpha=1.0)),
+            ("knn", KNeighborsRegressor(n_neighbors=3)),
+        ],
+        stage_input=stage_input,
+        n_steps=n_steps,
+    ).fit(X, y)
+    parts = booster.decompose(X)
+    total = sum(parts[name] for name in parts.stage_names)
+    assert_allclose(total, booster.predict(X), rtol=0, atol=1e-10)
+    assert_allclose(list(booster.staged_predict(X))[-1], parts.total, atol=1e-12)
+    perm = rng.permutation(60)
+    assert_allclose(booster.predict(X[perm]), booster.predict(X)[perm], atol=1e-10)

@@ -133,8 +133,8 @@ class ResidualACFDisplay:
 
     See Also
     --------
-    residual_acf : the autocorrelation and band.
-    ljung_box_test : the p-value.
+    residual_acf : The autocorrelation and band.
+    ljung_box_test : The p-value.
 
     Notes
     -----
@@ -189,6 +189,7 @@ class ResidualACFDisplay:
         Returns
         -------
         display : ResidualACFDisplay
+            This object, with the artists set.
         """
         lags = np.asarray(self.lags)
         acf = np.asarray(self.acf, dtype=float).reshape(lags.shape[0], -1)
@@ -285,6 +286,7 @@ class ResidualACFDisplay:
         Returns
         -------
         display : ResidualACFDisplay
+            The plotted display.
         """
         yt = _as_2d(y_true, "y_true")
         residuals = yt - _predictions_like(y_pred, yt, "y_pred")
@@ -329,14 +331,25 @@ class ResidualACFDisplay:
             Rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        lags, alpha, bartlett_confint, ax, output_names, stem_kwargs, band_kwargs
+        lags : int, default=20
+            Largest lag drawn and lags of the Ljung-Box test.
+        alpha : float, default=0.05
+            The band has coverage ``1 - alpha``.
+        bartlett_confint : bool, default=False
             See :meth:`from_predictions`.
+        ax : matplotlib Axes, array of Axes or None, default=None
+            One Axes per output.
         name : str or None, default=None
             Prefixed to the titles; ``None`` uses the estimator's class name.
+        output_names : list of str or None, default=None
+            Panel titles.
+        stem_kwargs, band_kwargs : dict or None, default=None
+            See :meth:`plot`.
 
         Returns
         -------
         display : ResidualACFDisplay
+            The plotted display.
         """
         y_pred = np.asarray(estimator.predict(X))
         y_arr = np.asarray(y)
@@ -413,7 +426,7 @@ class RMSEBoxDisplay:
 
     See Also
     --------
-    rmse_db : the per-window scores.
+    rmse_db : The per-window scores.
 
     Examples
     --------
@@ -454,6 +467,7 @@ class RMSEBoxDisplay:
         Returns
         -------
         display : RMSEBoxDisplay
+            This object, with the artists set.
         """
         models = _check_models(self.rmse_db, "rmse_db")
         low, high = _check_whis(whis)
@@ -567,6 +581,7 @@ class RMSEBoxDisplay:
         Returns
         -------
         display : RMSEBoxDisplay
+            The plotted display.
         """
         disp = cls(rmse_db=rmse_db, output_names=output_names, window=window)
         return disp.plot(ax=ax, whis=whis, bxp_kwargs=bxp_kwargs)
@@ -605,6 +620,7 @@ class RMSEBoxDisplay:
         Returns
         -------
         display : RMSEBoxDisplay
+            The plotted display.
         """
         preds = _check_models(y_pred, "y_pred")
         yt = _as_2d(y_true, "y_true")
@@ -646,12 +662,21 @@ class RMSEBoxDisplay:
             Test rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        window, output_names, ax, whis, bxp_kwargs
-            See :meth:`from_predictions`.
+        window : int, default=100
+            Samples per window; the last, shorter window is dropped.
+        output_names : list of str or None, default=None
+            Panel titles.
+        ax : matplotlib Axes, array of Axes or None, default=None
+            One Axes per output.
+        whis : tuple of (float, float), default=(5, 95)
+            Percentiles at the whisker ends.
+        bxp_kwargs : dict or None, default=None
+            See :meth:`plot`.
 
         Returns
         -------
         display : RMSEBoxDisplay
+            The plotted display.
         """
         models = _check_models(estimators, "estimators")
         y_arr = np.asarray(y)
@@ -719,7 +744,7 @@ class DecompositionDisplay:
 
     See Also
     --------
-    ResidualACFDisplay : whether the final residuals are white.
+    ResidualACFDisplay : Whether the final residuals are white.
 
     Notes
     -----
@@ -781,6 +806,7 @@ class DecompositionDisplay:
         Returns
         -------
         display : DecompositionDisplay
+            This object, with the artists set.
         """
         parts = _check_models(self.parts, "parts")
         y_true = np.asarray(self.y_true, dtype=float)
@@ -920,6 +946,7 @@ class DecompositionDisplay:
         Returns
         -------
         display : DecompositionDisplay
+            The plotted display.
         """
         parts = _check_models(parts, "parts")
         yt = _as_2d(y_true, "y_true")
@@ -990,14 +1017,21 @@ class DecompositionDisplay:
             Rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        n_std, time, ax, output_names
-            See :meth:`from_decomposition`.
+        n_std : float, default=2.0
+            Half-width of the band in standard deviations.
+        time : array-like of shape (n_samples,) or None, default=None
+            Horizontal axis; ``None`` uses the sample index.
+        ax : array of matplotlib Axes or None, default=None
+            ``2 * n_outputs`` Axes.
         name : str or None, default=None
             Figure title; ``None`` uses the estimator's class name.
+        output_names : list of str or None, default=None
+            Panel titles.
 
         Returns
         -------
         display : DecompositionDisplay
+            The plotted display.
         """
         if not callable(getattr(estimator, "decompose", None)):
             raise TypeError(

@@ -66,6 +66,11 @@ class DiagnosticReport:
     level : float
         ``alpha / n_tests``: the level each p-value is compared with.
 
+    See Also
+    --------
+    diagnose : Builds the report from an estimator.
+    diagnose_predictions : Builds it from predictions.
+
     Notes
     -----
     The verdict combines ``n_tests`` tests with Bonferroni's correction: each
@@ -231,10 +236,11 @@ def diagnose_predictions(
     Returns
     -------
     report : DiagnosticReport
+        RMSE, tests and verdict; print it or call ``to_frame()``.
 
     See Also
     --------
-    diagnose : the same from a fitted estimator and data.
+    diagnose : The same from a fitted estimator and data.
 
     Examples
     --------
@@ -336,11 +342,12 @@ def diagnose(
     Returns
     -------
     report : DiagnosticReport
+        RMSE, tests and verdict; print it or call ``to_frame()``.
 
     See Also
     --------
-    diagnose_predictions : the same from precomputed predictions.
-    ResidualACFDisplay : the residual autocorrelation as a figure.
+    diagnose_predictions : The same from precomputed predictions.
+    ResidualACFDisplay : The residual autocorrelation as a figure.
 
     Notes
     -----

@@ -105,6 +105,10 @@ class WhitenessResult:
     alpha : float
         Significance level of :attr:`passed`.
 
+    See Also
+    --------
+    ljung_box_test : Computes this result.
+
     Examples
     --------
     >>> import numpy as np
@@ -147,11 +151,15 @@ class ACFResult:
     acf : ndarray of shape (nlags + 1, n_outputs)
         Sample autocorrelation of each output (1 at lag 0).
     confint : ndarray of shape (nlags + 1, n_outputs, 2)
-        statsmodels' confidence interval around each ``acf`` value.
+        The confidence interval of statsmodels around each ``acf`` value.
     alpha : float
         The intervals have coverage ``1 - alpha``.
     n_samples : int
         Length of the series.
+
+    See Also
+    --------
+    residual_acf : Computes this result.
 
     Examples
     --------
@@ -213,6 +221,10 @@ class CrossCorrelationResult:
         Order of each residual's prewhitening AR filter (0: none).
     input_ar_order : ndarray of shape (n_inputs,)
         Order of each input's prewhitening AR filter (0: none).
+
+    See Also
+    --------
+    residual_input_correlation : Computes this result.
 
     Examples
     --------
@@ -295,8 +307,8 @@ def ljung_box_test(residuals, lags=20, *, model_df=0, alpha=0.05):
 
     See Also
     --------
-    skhybrid.losses.ljung_box : the same statistic for NumPy and torch (training).
-    residual_acf : the autocorrelations the statistic sums.
+    skhybrid.losses.ljung_box : The same statistic for NumPy and torch (training).
+    residual_acf : The autocorrelations the statistic sums.
 
     Notes
     -----
@@ -364,8 +376,8 @@ def residual_acf(residuals, nlags=20, *, alpha=0.05, bartlett_confint=True):
 
     See Also
     --------
-    ljung_box_test : one test over all these lags.
-    ResidualACFDisplay : plots this result with the Ljung-Box p-value.
+    ljung_box_test : One test over all these lags.
+    ResidualACFDisplay : Plots this result with the Ljung-Box p-value.
 
     Examples
     --------
@@ -504,7 +516,7 @@ def residual_input_correlation(
 
     See Also
     --------
-    ljung_box_test : whiteness of the residuals themselves.
+    ljung_box_test : Whiteness of the residuals themselves.
 
     Notes
     -----
@@ -614,7 +626,7 @@ def rmse_db(y_true, y_pred, *, window=None):
 
     See Also
     --------
-    RMSEBoxDisplay : box plots of the windowed values for several models.
+    RMSEBoxDisplay : Box plots of the windowed values for several models.
 
     Examples
     --------

@@ -5,6 +5,7 @@ When scikit-learn moves its internals, only this file changes.
 
 from sklearn.base import _fit_context
 from sklearn.externals import array_api_compat
+from sklearn.utils import _safe_indexing
 from sklearn.utils._param_validation import (
     HasMethods,
     Interval,
@@ -22,6 +23,7 @@ __all__ = [
     "StrOptions",
     "_BaseComposition",
     "_fit_context",
+    "_safe_indexing",
     "array_api_compat",
     "validate_data",
     "validate_params",

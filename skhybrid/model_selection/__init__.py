@@ -1,5 +1,27 @@
-"""Interpolative and extrapolative test sets, and convex hull membership."""
+"""Interpolative and extrapolative test sets (section 5 and Fig. 2 of the paper).
+
+- :func:`in_convex_hull`: exact hull membership that scales with dimension;
+- :func:`interpolation_extrapolation_split`: training, interpolative and
+  extrapolative sets, like ``train_test_split``;
+- :class:`ConvexHullSplit`: cross-validation with test folds outside (or inside)
+  the convex hull of the training fold, cut from different directions;
+- :class:`ExtrapolationSplit`: train inside a range of chosen features, test
+  outside it (amplitude extrapolation);
+- :class:`ConvexHullSplitDisplay`: draws a split over two features.
+"""
 
 from skhybrid.model_selection._hull import in_convex_hull
+from skhybrid.model_selection._plot import ConvexHullSplitDisplay
+from skhybrid.model_selection._split import (
+    ConvexHullSplit,
+    ExtrapolationSplit,
+    interpolation_extrapolation_split,
+)
 
-__all__ = ["in_convex_hull"]
+__all__ = [
+    "ConvexHullSplit",
+    "ConvexHullSplitDisplay",
+    "ExtrapolationSplit",
+    "in_convex_hull",
+    "interpolation_extrapolation_split",
+]

@@ -20,7 +20,7 @@ from numbers import Integral, Real
 
 import numpy as np
 from scipy.optimize import linprog
-from scipy.spatial import ConvexHull, Delaunay
+from scipy.spatial import ConvexHull, Delaunay, QhullError
 from sklearn.utils import check_array
 from threadpoolctl import ThreadpoolController
 
@@ -35,7 +35,6 @@ _AUTO_FACETS_MAX_DIM = 5
 # Queries priced against the reference points at once: a (chunk, n_reference)
 # float32 block of scores stays in cache.
 _CHUNK = 512
-_DEBUG = False
 
 
 @validate_params(
@@ -252,7 +251,7 @@ def _delaunay(Q, R, tol):
     """Delaunay point location on the vertices of the hull."""
     try:
         vertices = R[ConvexHull(R).vertices]
-    except Exception:  # pragma: no cover - Qhull failure: use every point
+    except QhullError:  # pragma: no cover - degenerate vertex set
         vertices = R
     tri = Delaunay(vertices)
     return tri.find_simplex(Q, tol=tol) >= 0
@@ -371,10 +370,7 @@ def _wolfe(X, R, tol, max_iter):
         jc, smin = _price(z, R32[cand])
         j = cand[jc]
         gap = smin - zx
-        full = ~done_in & (
-            (gap + bound > tol * nz) | (nz2 - gap <= 1e-9 * nz2 + bound)
-        )
-        if _DEBUG: print(len(act), full.sum(), len(cand))
+        full = ~done_in & ((gap + bound > tol * nz) | (nz2 - gap <= 1e-9 * nz2 + bound))
         if full.any():
             j[full], smin_full = _price(z[full], R32)
             gap[full] = smin_full - zx[full]

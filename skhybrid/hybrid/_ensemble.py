@@ -391,7 +391,8 @@ class HybridEnsembleRegressor(RegressorMixin, BaseEstimator):
             return (target - self.domain_.predict_with(Xt, params)).reshape(-1)
 
         t = torch.as_tensor(theta)
-        J = torch.func.jacrev(residual)(t).detach().numpy()
+        # Forward mode: one pass per parameter rather than one per residual.
+        J = torch.func.jacfwd(residual)(t).detach().numpy()
         r = residual(t).detach().numpy()
         dof = r.size - spec.n_free
         s2 = float(r @ r) / dof if dof > 0 else np.inf

@@ -1,5 +1,6 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
+import copy
 from numbers import Integral, Real
 
 import numpy as np
@@ -27,7 +28,7 @@ from skhybrid.utils._sklearn_compat import (
 __all__ = ["BaseNeuralRegressor"]
 
 # Rows per forward pass at prediction time: bounds memory, not results (the
-# module is in eval mode, so a row's prediction does not depend on its batch).
+# module runs in eval mode and in float64, see _forward).
 _PREDICT_CHUNK = 65536
 
 
@@ -352,14 +353,24 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         return self
 
     def _forward(self, module, Xs):
-        """Run a module in eval mode on standardised float64 rows, in chunks."""
-        module.eval()
+        """Run a module in eval mode on standardised float64 rows, in chunks.
+
+        The computation runs in float64 on a float64 copy of the (float32-trained)
+        weights: float32 matrix products may round differently for different
+        batch sizes, which would make a row's prediction depend on the other rows
+        predicted with it.
+        """
+        module = copy.deepcopy(module).double().eval()
         out = []
         with torch.no_grad():
             for start in range(0, Xs.shape[0], _PREDICT_CHUNK):
-                chunk = self._to_tensor(Xs[start : start + _PREDICT_CHUNK])
-                out.append(module(chunk).detach().cpu().numpy())
-        return np.concatenate(out).astype(np.float64)
+                chunk = torch.as_tensor(
+                    np.ascontiguousarray(Xs[start : start + _PREDICT_CHUNK]),
+                    dtype=torch.float64,
+                    device=self.device,
+                )
+                out.append(module(chunk).cpu().numpy())
+        return np.concatenate(out)
 
     def predict(self, X):
         """Predict with the trained network.

@@ -117,8 +117,8 @@ class CyclicRegressor(BaseNeuralRegressor):
     >>> rng = np.random.default_rng(0)
     >>> X = rng.uniform(0, 1, size=(500, 1))
     >>> y = np.exp(X[:, 0])
-    >>> model = CyclicRegressor(hidden_layer_sizes=(32, 32), max_epochs=60,
-    ...                         batch_size=64, random_state=0).fit(X, y)
+    >>> model = CyclicRegressor(hidden_layer_sizes=(32, 32), max_epochs=20,
+    ...                         batch_size=32, random_state=0).fit(X, y)
     >>> model.predict(X[:2]).shape
     (2,)
     >>> model.inverse_predict(y[:2]).shape

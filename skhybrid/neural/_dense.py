@@ -124,8 +124,8 @@ class DenseRegressor(BaseNeuralRegressor):
     >>> rng = np.random.default_rng(0)
     >>> X = rng.uniform(-1, 1, size=(500, 2))
     >>> y = np.sin(3 * X[:, 0]) + X[:, 1] ** 2
-    >>> model = DenseRegressor(hidden_layer_sizes=(32, 32), max_epochs=60,
-    ...                        batch_size=64, random_state=0).fit(X, y)
+    >>> model = DenseRegressor(hidden_layer_sizes=(32, 32), max_epochs=20,
+    ...                        batch_size=32, random_state=0).fit(X, y)
     >>> model.predict(X[:3]).shape
     (3,)
     >>> bool(model.score(X, y) > 0.9)

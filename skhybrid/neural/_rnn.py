@@ -111,7 +111,7 @@ class RNNRegressor(BaseNeuralRegressor):
     >>> t = np.arange(600) * 0.1
     >>> X, y = make_windows(np.sin(t)[:, None], np.cos(0.5 * t)[:, None], n_steps=3)
     >>> model = RNNRegressor(hidden_size=16, num_layers=1, n_steps=3,
-    ...                      max_epochs=40, batch_size=64, random_state=0)
+    ...                      max_epochs=20, batch_size=64, random_state=0)
     >>> model.fit(X, y.ravel()).predict(X[:2]).shape
     (2,)
     """

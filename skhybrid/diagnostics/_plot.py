@@ -1046,7 +1046,9 @@ class DecompositionDisplay:
             has_std = "return_std" in signature(estimator.predict).parameters
         except (TypeError, ValueError):  # pragma: no cover - builtins
             has_std = False
-        if has_std:
+        # A booster fitted without a noise model has predict(return_std=...) but no
+        # standard deviation to give: fall back to the residual's spread then.
+        if has_std and getattr(estimator, "noise_model_", True) is not None:
             _, std = estimator.predict(X, return_std=True)
         return cls.from_decomposition(
             parts,

@@ -469,3 +469,18 @@ def test_decompose_invariants(n_steps, n_outputs, n_inputs, stage_input, seed):
     assert_allclose(list(booster.staged_predict(X))[-1], parts.total, atol=1e-12)
     perm = rng.permutation(60)
     assert_allclose(booster.predict(X[perm]), booster.predict(X)[perm], atol=1e-10)
+
+
+def test_decomposition_display_without_noise_model(pyplot):
+    """The booster without a noise model still draws, with the residual band."""
+    from skhybrid.diagnostics import DecompositionDisplay
+    from skhybrid.hybrid import HybridBoostingRegressor
+
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((200, 2))
+    y = X @ [1.0, -2.0] + np.sin(3 * X[:, 0]) + 0.1 * rng.standard_normal(200)
+    booster = HybridBoostingRegressor(
+        [("linear", Ridge()), ("ridge2", Ridge(alpha=10.0))], stage_input="window"
+    ).fit(X, y)
+    disp = DecompositionDisplay.from_estimator(booster, X[:50], y[:50])
+    assert disp.figure_ is not None

@@ -54,8 +54,9 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
 
     - inputs and targets are standardised with the training rows' mean and
       standard deviation (``x_mean_``, ``x_scale_``, ``y_mean_``, ``y_scale_``);
-      the network sees float32 standardised data, ``predict`` returns float64 in
-      the original units;
+      the network trains in float32 on standardised data; ``predict`` runs a
+      float64 copy of the weights (so a row's prediction does not depend on the
+      rows predicted with it) and returns float64 in the original units;
     - Adam with learning rate ``lr``; the learning rate is multiplied by
       ``lr_factor`` when the monitored loss has not improved for ``lr_patience``
       epochs (``ReduceLROnPlateau``); training stops when it has not improved for

@@ -1,18 +1,10 @@
-"""Shared fixtures: seeds, the Agg backend, the real-data folder and torch threads."""
+"""Shared fixtures: seeds, the Agg backend and the real-data folder."""
 
 import os
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-# One torch thread per pytest-xdist worker: two workers on two cores.
-try:
-    import torch
-
-    torch.set_num_threads(1)
-except ImportError:  # pragma: no cover
-    pass
 
 DATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

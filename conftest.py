@@ -1,0 +1,13 @@
+"""Root pytest configuration: one torch thread per test process.
+
+pytest-xdist runs two workers on CI's two cores; with torch's default of one thread
+per core the workers would compete for the cores (measured: up to 12x slower). Set
+here, at the root, so that doctests under ``skhybrid/`` get it too.
+"""
+
+try:
+    import torch
+
+    torch.set_num_threads(1)
+except ImportError:  # pragma: no cover
+    pass

@@ -475,17 +475,19 @@ class ConvexHullSplit(BaseCrossValidator):
 
 
 def _directions(n_features, n_splits, rng):
-    """Unit directions, orthogonal while there are fewer than n_features."""
-    G = rng.standard_normal((n_features, n_splits))
+    """Unit directions for the splits, as different from each other as possible.
+
+    Each block of ``2 * n_features`` splits walks the two ends of the axes of a
+    random orthonormal basis (``q0, -q0, q1, -q1, ...``), so consecutive splits
+    cut the data from opposite sides and then from perpendicular ones.
+    """
     out = []
-    for start in range(0, n_splits, n_features):
-        block = G[:, start : start + n_features]
-        q, r = np.linalg.qr(block)
-        q *= np.where(
-            np.diag(r) < 0, -1.0, 1.0
-        )  # QR's sign convention would bias directions
-        out.extend(q.T)
-    return np.asarray(out)
+    while len(out) < n_splits:
+        q, r = np.linalg.qr(rng.standard_normal((n_features, n_features)))
+        q *= np.where(np.diag(r) < 0, -1.0, 1.0)  # uniform over rotations
+        for axis in q.T:
+            out.extend([axis, -axis])
+    return np.asarray(out[:n_splits])
 
 
 class ExtrapolationSplit(BaseCrossValidator):

@@ -135,9 +135,16 @@ def in_convex_hull(points, reference, *, tol=1e-9, method="auto", max_iter=None)
             f"points has {points.shape[1]} features but reference has "
             f"{reference.shape[1]}; both must describe the same features."
         )
-    n_features = reference.shape[1]
     if max_iter is None:
-        max_iter = 10 * (n_features + 1)
+        max_iter = 10 * (reference.shape[1] + 1)
+    # Small problems run faster on one BLAS thread; idle threads of a
+    # multithreaded BLAS spin and slow everything else on a busy machine.
+    small = points.shape[0] * reference.shape[0] < 10_000_000
+    with _blas_threads(1 if small else None):
+        return _in_convex_hull(points, reference, tol, method, max_iter)
+
+
+def _in_convex_hull(points, reference, tol, method, max_iter):
 
     inside = np.zeros(points.shape[0], dtype=bool)
     undecided = np.ones(points.shape[0], dtype=bool)

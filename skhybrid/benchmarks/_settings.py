@@ -44,8 +44,8 @@ class ExperimentSettings:
     n_train: int = 25_000
     n_test: int = 25_000
     n_steps: int = 4
-    max_epochs: int = 60
-    patience: int = 10
+    max_epochs: int = 100
+    patience: int = 30
     dense_layers: tuple = (128, 128, 128)
     rnn_hidden: int = 50
     rnn_layers: int = 2

@@ -23,9 +23,23 @@ __all__ = [
 ]
 
 
-def affine_sum(X, *, a, b, xp=np):
-    """``a * sum(X, axis=1) + b`` as one shared column: a generic test function."""
-    return a * xp.sum(X, axis=1, keepdims=True) + b
+class _AffineSum:
+    """``a * sum(X, axis=1) + b`` as one shared column: a generic test function.
+
+    A class with a fixed ``repr`` (a plain function's repr holds its memory address)
+    so that test ids are the same in every pytest-xdist worker.
+    """
+
+    __name__ = "affine_sum"
+
+    def __call__(self, X, *, a, b, xp=np):
+        return a * xp.sum(X, axis=1, keepdims=True) + b
+
+    def __repr__(self):
+        return "affine_sum"
+
+
+affine_sum = _AffineSum()
 
 
 FAST_PARAMS = {

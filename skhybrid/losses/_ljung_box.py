@@ -49,7 +49,7 @@ def _check_series(residuals, lags, xp):
 
 def _block_size(nlags):
     """FFT length of the blocked autocovariance: short enough to stay in cache."""
-    return max(256, 1 << (8 * (nlags + 1) - 1).bit_length())
+    return max(256, 1 << (32 * (nlags + 1) - 1).bit_length())
 
 
 def _autocovariance(centered, nlags, xp):

@@ -44,7 +44,7 @@ class ExperimentSettings:
     n_train: int = 25_000
     n_test: int = 25_000
     n_steps: int = 4
-    max_epochs: int = 100
+    max_epochs: int = 200
     patience: int = 30
     dense_layers: tuple = (128, 128, 128)
     rnn_hidden: int = 50

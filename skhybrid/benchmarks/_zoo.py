@@ -9,8 +9,9 @@ from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor
 __all__ = ["model_zoo"]
 
 
-def _network_kwargs(settings, seed_offset):
+def _network_kwargs(settings, seed_offset, target_scaling="per_output"):
     return {
+        "target_scaling": target_scaling,
         "max_epochs": settings.max_epochs,
         "patience": settings.patience,
         "batch_size": settings.batch_size,
@@ -39,10 +40,14 @@ def model_zoo(system, settings):
     physics = system.physics(s)
     base = physics[system.hybrid_physics]
 
-    def dense(offset):
-        return DenseRegressor(s.dense_layers, **_network_kwargs(s, offset))
+    # Standalone networks predict states in different units: scale per output.
+    # Residual stages scale all outputs alike, so their loss weighs errors in the
+    # outputs' units like the physics stage's least squares (outputs the physics
+    # already explains hold only noise, which per-output scaling would inflate).
+    def dense(offset, scaling="per_output"):
+        return DenseRegressor(s.dense_layers, **_network_kwargs(s, offset, scaling))
 
-    def rnn(offset, objective="mse"):
+    def rnn(offset, objective="mse", scaling="per_output"):
         return RNNRegressor(
             "gru",
             hidden_size=s.rnn_hidden,
@@ -50,11 +55,11 @@ def model_zoo(system, settings):
             n_steps=s.n_steps,
             objective=objective,
             ljung_box_lags=s.lags,
-            **_network_kwargs(s, offset),
+            **_network_kwargs(s, offset, scaling),
         )
 
-    def cyclic(offset):
-        return CyclicRegressor(s.dense_layers, **_network_kwargs(s, offset))
+    def cyclic(offset, scaling="per_output"):
+        return CyclicRegressor(s.dense_layers, **_network_kwargs(s, offset, scaling))
 
     def boost(name, stage, **kwargs):
         return HybridBoostingRegressor(
@@ -74,10 +79,10 @@ def model_zoo(system, settings):
     zoo["physics+linear"] = boost(
         "linear", LinearStateSpaceModel(n_steps=s.n_steps), stage_input="window"
     )
-    zoo["physics+dense"] = boost("dense", dense(4))
-    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5))
-    zoo["physics+rnn (ljung-box)"] = boost("rnn", rnn(5, "mse+ljung_box"))
-    zoo["physics+cyclic"] = boost("cyclic", cyclic(6))
+    zoo["physics+dense"] = boost("dense", dense(4, "shared"))
+    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5, "mse", "shared"))
+    zoo["physics+rnn (ljung-box)"] = boost("rnn", rnn(5, "mse+ljung_box", "shared"))
+    zoo["physics+cyclic"] = boost("cyclic", cyclic(6, "shared"))
     zoo["ensemble"] = HybridEnsembleRegressor(
         clone(physics[system.ensemble_physics]),
         dense(7),

@@ -101,6 +101,15 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         Rows per mini-batch.
     validation_fraction : float, default=0.2
         Fraction of the rows, taken from the end, used to monitor training.
+    target_scaling : {"per_output", "shared"}, default="per_output"
+        How targets are standardised for training. ``"per_output"`` divides each
+        output by its own standard deviation, so every output counts the same (the
+        usual choice for states in different units). ``"shared"`` divides all
+        outputs by one scale (the root mean square of their standard deviations),
+        so the loss weighs errors in the outputs' own units, like a physics
+        stage's least squares: the choice for a residual stage, where outputs the
+        physics already explains hold only noise that per-output scaling would
+        blow up to unit variance.
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops;
         ``None`` trains for ``max_epochs`` (the best weights are still restored).
@@ -136,6 +145,7 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         "callbacks": [list, None],
         "random_state": ["random_state"],
         "device": [StrOptions({"cpu", "cuda"})],
+        "target_scaling": [StrOptions({"per_output", "shared"})],
         "verbose": ["verbose"],
     }
 
@@ -149,6 +159,7 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         max_epochs=200,
         batch_size=512,
         validation_fraction=0.2,
+        target_scaling="per_output",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -164,6 +175,7 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         self.max_epochs = max_epochs
         self.batch_size = batch_size
         self.validation_fraction = validation_fraction
+        self.target_scaling = target_scaling
         self.patience = patience
         self.lr_patience = lr_patience
         self.lr_factor = lr_factor
@@ -273,6 +285,9 @@ class BaseNeuralRegressor(RegressorMixin, BaseEstimator):
         y_scaler = StandardScaler().fit(y2)
         self.x_mean_, self.x_scale_ = x_scaler.mean_, x_scaler.scale_
         self.y_mean_, self.y_scale_ = y_scaler.mean_, y_scaler.scale_
+        if self.target_scaling == "shared":
+            shared = np.sqrt(np.mean(self.y_scale_**2))
+            self.y_scale_ = np.full_like(self.y_scale_, shared if shared > 0 else 1.0)
         self.n_outputs_ = n_outputs
         self._y_1d = y.ndim == 1
         Xt = self._to_tensor((X - self.x_mean_) / self.x_scale_)

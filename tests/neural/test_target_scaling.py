@@ -32,5 +32,5 @@ def test_shared_scaling_uses_one_scale_and_returns_original_units(rng):
 
 def test_bad_target_scaling_names_the_value(rng):
     X, y = _data(rng, 50)
-    with pytest.raises(ValueError, match="target_scaling.*Got 'global'"):
+    with pytest.raises(ValueError, match=r"target_scaling.*Got 'global'"):
         DenseRegressor((4,), target_scaling="global").fit(X, y)

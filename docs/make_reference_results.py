@@ -64,11 +64,9 @@ def main(paths):
         for _, system in entries:
             for model, ps in system["params"].items():
                 for p, v in ps.items():
-                    # Frozen parameters of the hybrids' first stage say nothing new.
-                    held = v["std"] == 0 and not model.startswith("physics")
-                    if isinstance(v["value"], float) and not (
-                        held or "+" in model and v["std"] == 0
-                    ):
+                    # A hybrid's frozen first stage repeats the frozen physics.
+                    frozen_stage = "+" in model and v["std"] == 0
+                    if isinstance(v["value"], float) and not frozen_stage:
                         params[(model, p)].append((v["value"], v["std"]))
         if params:
             print("\nFitted physical parameters (value ± standard error, per seed)\n")

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 from joblib import Parallel, delayed
 
+from skhybrid.benchmarks._progress import ProgressBars, attach_epoch_logger
 from skhybrid.benchmarks._settings import ExperimentSettings
 from skhybrid.benchmarks._systems import SYSTEMS
 from skhybrid.benchmarks._zoo import model_zoo
@@ -195,7 +196,8 @@ def run_experiment(
     n_jobs : int, default=1
         Models fitted in parallel with joblib (-1: all cores).
     progress : bool, default=False
-        Show a progress bar over the models on standard error.
+        Show progress bars on standard error: models fitted, and epochs of all
+        networks (counted across joblib workers).
 
     Returns
     -------
@@ -226,15 +228,14 @@ def run_experiment(
     tests = [(split, splits[split].X) for split in result.test_splits]
     # The slowest fits (recurrent hybrids) first, so parallel workers finish together.
     order = sorted(zoo, key=lambda name: ("rnn" not in name, "ensemble" not in name))
+    bars = ProgressBars(len(zoo), system.name) if progress else None
+    if bars is not None:
+        for name in order:
+            attach_epoch_logger(zoo[name], bars.path, name)
     jobs = (
         delayed(_fit_one)(name, zoo[name], train.X, train.y, tests, n_threads)
         for name in order
     )
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(zoo), desc=f"{system.name}: fitting", unit="model")
     outputs = Parallel(n_jobs=workers, return_as="generator_unordered")(jobs)
     for name, out in outputs:
         result.fits[name] = {
@@ -246,12 +247,10 @@ def run_experiment(
             result.params[name] = out["params"]
         for split, pred in out["predictions"].items():
             result.predictions[split][name] = np.asarray(pred, dtype=float)
-        if bar is not None:
-            epochs = "" if out["n_epochs"] is None else f", {out['n_epochs']} epochs"
-            bar.set_postfix_str(f"{name} ({out['fit_time']:.1f} s{epochs})")
-            bar.update()
-    if bar is not None:
-        bar.close()
+        if bars is not None:
+            bars.model_done(name, out["fit_time"], out["n_epochs"])
+    if bars is not None:
+        bars.close()
     # Keep the zoo's order (and the oracle first) whatever order fits finished in.
     for split in result.test_splits:
         preds = result.predictions[split]

@@ -108,8 +108,12 @@ def _params_rows(result):
                 text = f"{float(value):.6g}"
                 err = "" if std is None else f"{float(std):.3g}"
             else:
-                text = np.array2string(value, precision=4, suppress_small=True)
-                err = "" if std is None else np.array2string(std, precision=2)
+                text = np.array2string(value, formatter={"float_kind": "{:.4g}".format})
+                err = (
+                    ""
+                    if std is None
+                    else np.array2string(std, formatter={"float_kind": "{:.2g}".format})
+                )
             rows.append({"model": model, "parameter": name, "value": text, "std": err})
     return rows
 

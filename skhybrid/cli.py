@@ -141,6 +141,11 @@ def main(argv=None):
     paths = write_report(results, args.out, command=command, wall_time=wall)
     total = time.perf_counter() - start
     sys.stdout.write(f"wrote {paths['html']} ({total:.1f} s)\n")
+    if args.quick:
+        sys.stdout.write(
+            "  --quick trains on small data for a few epochs: the paper's claims "
+            "below are judged on the full run\n"
+        )
     for result in results:
         from skhybrid.benchmarks import check_claims
 

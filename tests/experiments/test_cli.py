@@ -65,7 +65,12 @@ def test_bad_arguments_exit_2_with_one_line(capsys, argv, reason):
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
+    import matplotlib
+    import matplotlib.pyplot as plt
+
     out = tmp_path_factory.mktemp("quick")
+    backend = matplotlib.get_backend()
+    users_figure = plt.figure()  # a user's own plotting session
     status = main(
         [
             "run",
@@ -79,6 +84,10 @@ def quick_run(tmp_path_factory):
         ]
     )
     assert status == 0
+    # write_report draws with the Figure API: the user's session is left alone.
+    assert matplotlib.get_backend() == backend
+    assert plt.get_fignums() == [users_figure.number]
+    plt.close(users_figure)
     return out
 
 
@@ -172,3 +181,30 @@ def test_report_renders_in_headless_chromium(quick_run, tmp_path):
     match = re.search(r'data-rendered="(\d+)"', out.stdout)
     assert match, out.stderr[-2000:]
     assert int(match.group(1)) == len(list(quick_run.glob("*.png")))
+
+
+def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path):
+    # A fresh environment without matplotlib once trained every model and then
+    # died writing the report; the check must come before any training.
+    import importlib.util
+
+    import skhybrid.experiments as experiments
+
+    real_find_spec = importlib.util.find_spec
+
+    def find_spec(name, *args, **kwargs):
+        return None if name == "matplotlib" else real_find_spec(name, *args, **kwargs)
+
+    def no_training(*args, **kwargs):  # pragma: no cover - must not be reached
+        raise AssertionError("training started before the requirement check")
+
+    monkeypatch.setattr(importlib.util, "find_spec", find_spec)
+    monkeypatch.setattr(experiments, "run_experiment", no_training)
+    assert main(["run", "pendulum", "--quick", "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "skhybrid: error: `skhybrid run` needs matplotlib, which is not "
+        "installed; install it with `pip install matplotlib`"
+    ]
+    assert not (tmp_path / "r").exists()
+

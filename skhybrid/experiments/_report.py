@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from skhybrid.benchmarks._claims import check_claims
+from skhybrid.experiments._claims import check_claims
 
 __all__ = ["write_report"]
 
@@ -24,26 +24,25 @@ def _slug(text):
 
 def _figures(result, out_dir):
     """Draw the box plots and residual ACFs; return ``[(title, path)]``."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    # The object-oriented Figure API draws without pyplot, so a user's own
+    # plotting session (its backend and open figures) is left alone.
+    from matplotlib.figure import Figure
 
     from skhybrid.diagnostics import ResidualACFDisplay, RMSEBoxDisplay
 
     name = result.system.name
     figures = []
     for split in result.test_splits:
+        n_outputs = len(result.target_names)
+        fig = Figure(figsize=(4.2 * n_outputs, 6.5), layout="constrained")
         disp = RMSEBoxDisplay(
             rmse_db=result.windowed_db(split),
             output_names=result.target_names,
             window=result.settings.window,
-        ).plot()
-        disp.figure_.set_size_inches(4.2 * len(result.target_names), 6.5)
+        ).plot(ax=fig.subplots(1, n_outputs, squeeze=False))
         disp.figure_.suptitle(f"{result.system.title}: {split} test set")
         path = out_dir / f"{name}_rmse_{split}.png"
         disp.figure_.savefig(path, dpi=90)
-        plt.close(disp.figure_)
         figures.append((f"RMSE in dB over windows, {split}", path))
 
     split = "interpolation"
@@ -53,18 +52,18 @@ def _figures(result, out_dir):
         if model not in result.predictions[split]:
             continue
         residual = result.splits[split].y - result.predictions[split][model]
+        fig = Figure(figsize=(4.2 * residual.shape[1], 3.4), layout="constrained")
         disp = ResidualACFDisplay.from_predictions(
             result.splits[split].y,
             result.predictions[split][model],
             lags=max(40, result.settings.lags),
             name=model,
             output_names=result.target_names,
+            ax=fig.subplots(1, residual.shape[1], squeeze=False),
         )
-        disp.figure_.set_size_inches(4.2 * residual.shape[1], 3.4)
         disp.figure_.suptitle(f"Residual autocorrelation, {model} ({split})")
         path = out_dir / f"{name}_acf_{_slug(model)}.png"
         disp.figure_.savefig(path, dpi=90)
-        plt.close(disp.figure_)
         figures.append((f"Residual ACF, {model}", path))
     return figures
 

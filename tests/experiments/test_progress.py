@@ -3,7 +3,7 @@
 import numpy as np
 from joblib import Parallel, delayed
 
-from skhybrid.benchmarks._progress import attach_epoch_logger
+from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.domain import LinearStateSpaceModel
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor

@@ -3,17 +3,17 @@
 Run them from the shell with ``skhybrid run pendulum --quick`` (see
 ``skhybrid --help``), or from Python::
 
-    from skhybrid.benchmarks import run_experiment, write_report
+    from skhybrid.experiments import run_experiment, write_report
     result = run_experiment("pendulum", quick=True)
     write_report([result], "results")
 """
 
-from skhybrid.benchmarks._claims import check_claims
-from skhybrid.benchmarks._report import write_report
-from skhybrid.benchmarks._runner import ExperimentResult, run_experiment
-from skhybrid.benchmarks._settings import ExperimentSettings
-from skhybrid.benchmarks._systems import SYSTEMS, System
-from skhybrid.benchmarks._zoo import model_zoo
+from skhybrid.experiments._claims import check_claims
+from skhybrid.experiments._report import write_report
+from skhybrid.experiments._runner import ExperimentResult, run_experiment
+from skhybrid.experiments._settings import ExperimentSettings
+from skhybrid.experiments._systems import SYSTEMS, System
+from skhybrid.experiments._zoo import model_zoo
 
 __all__ = [
     "SYSTEMS",

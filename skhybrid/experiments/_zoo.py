@@ -24,7 +24,7 @@ def model_zoo(system, settings):
 
     Parameters
     ----------
-    system : skhybrid.benchmarks.System
+    system : skhybrid.experiments.System
         The system (gives its physics models).
     settings : ExperimentSettings
         Sizes, architectures and seed.

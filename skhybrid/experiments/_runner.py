@@ -8,10 +8,10 @@ import warnings
 import numpy as np
 from joblib import Parallel, delayed
 
-from skhybrid.benchmarks._progress import ProgressBars, attach_epoch_logger
-from skhybrid.benchmarks._settings import ExperimentSettings
-from skhybrid.benchmarks._systems import SYSTEMS
-from skhybrid.benchmarks._zoo import model_zoo
+from skhybrid.experiments._progress import ProgressBars, attach_epoch_logger
+from skhybrid.experiments._settings import ExperimentSettings
+from skhybrid.experiments._systems import SYSTEMS
+from skhybrid.experiments._zoo import model_zoo
 from skhybrid.diagnostics import ljung_box_test, rmse_db
 
 __all__ = ["ExperimentResult", "run_experiment"]

@@ -8,11 +8,11 @@ import warnings
 import numpy as np
 from joblib import Parallel, delayed
 
+from skhybrid.diagnostics import ljung_box_test, rmse_db
 from skhybrid.experiments._progress import ProgressBars, attach_epoch_logger
 from skhybrid.experiments._settings import ExperimentSettings
 from skhybrid.experiments._systems import SYSTEMS
 from skhybrid.experiments._zoo import model_zoo
-from skhybrid.diagnostics import ljung_box_test, rmse_db
 
 __all__ = ["ExperimentResult", "run_experiment"]
 

@@ -188,7 +188,7 @@ def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path
     # died writing the report; the check must come before any training.
     import importlib.util
 
-    import skhybrid.experiments as experiments
+    from skhybrid import experiments
 
     real_find_spec = importlib.util.find_spec
 
@@ -202,9 +202,10 @@ def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path
     monkeypatch.setattr(experiments, "run_experiment", no_training)
     assert main(["run", "pendulum", "--quick", "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [
+    expected = (
         "skhybrid: error: `skhybrid run` needs matplotlib, which is not "
         "installed; install it with `pip install matplotlib`"
-    ]
+    )
+    assert err == [expected]
     assert not (tmp_path / "r").exists()
 

@@ -3,8 +3,8 @@
 import numpy as np
 from joblib import Parallel, delayed
 
-from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.domain import LinearStateSpaceModel
+from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
 

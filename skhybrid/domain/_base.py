@@ -263,22 +263,54 @@ class DomainModel(RegressorMixin, BaseEstimator):
         if jac == "autograd":
             self._check_autograd()
             jac = self._autograd_jacobian(X, y, spec)
+        # least_squares stops when the gradient J^T f falls below an absolute
+        # gtol, and steps its finite differences by absolute amounts: both depend
+        # on the units of the data and of the parameters. It therefore works on
+        # dimensionless residuals (divided by the target's scale) and parameters
+        # (divided by their starting values), so a fit gives the same answer
+        # whatever the units.
+        r_scale = self._residual_scale(y)
+        p_scale = spec.scale
+
+        def scaled_fun(z):
+            return np.asarray(fun(z * p_scale), dtype=float) / r_scale
+
+        scaled_jac = jac
+        if callable(jac):
+
+            def scaled_jac(z):
+                return jac(z * p_scale) * (p_scale / r_scale)
+
         kwargs = {}
         if self.max_nfev is not None:
             kwargs["max_nfev"] = self.max_nfev
+        z0, z_lower, z_upper = (
+            spec.x0 / p_scale,
+            spec.lower / p_scale,
+            spec.upper / p_scale,
+        )
         result = least_squares(
-            fun,
-            spec.x0,
-            jac=jac,
-            bounds=(spec.lower, spec.upper),
+            scaled_fun,
+            z0,
+            jac=scaled_jac,
+            bounds=(z_lower, z_upper),
             loss=self.loss,
-            f_scale=self.f_scale,
+            f_scale=self.f_scale / r_scale,
             x_scale="jac",
             **kwargs,
         )
+        moved = bool(np.any(result.x != z0))
+        stationary = _stationary_at(result, z0, z_lower, z_upper)
+        # Back to the units of the data and the parameters.
+        result.x = result.x * p_scale
+        result.fun = result.fun * r_scale
+        result.cost = result.cost * r_scale**2
+        result.jac = result.jac * (r_scale / p_scale)
+        result.grad = result.grad * (r_scale**2 / p_scale)
+        name = type(self).__name__
         if result.status == 0:
             warnings.warn(
-                f"{type(self).__name__}: least_squares stopped after "
+                f"{name}: least_squares stopped after "
                 f"max_nfev={result.nfev} evaluations without converging; increase "
                 "max_nfev, start closer to the solution, or rescale X.",
                 ConvergenceWarning,
@@ -286,11 +318,34 @@ class DomainModel(RegressorMixin, BaseEstimator):
             )
         elif not result.success:
             warnings.warn(
-                f"{type(self).__name__}: least_squares failed: {result.message}",
+                f"{name}: least_squares failed: {result.message}",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+        elif not moved and not stationary:
+            params = spec.to_dict(result.x)
+            warnings.warn(
+                f"{name}: least_squares stopped at the starting values "
+                f"{params} after {result.nfev} evaluation(s) ({result.message}) "
+                "although they are not a stationary point of the objective: the "
+                "fit did not move. Check that the parameters change the "
+                "predictions, and start closer to the solution.",
                 ConvergenceWarning,
                 stacklevel=3,
             )
         return result.x, result
+
+    def _residual_scale(self, y):
+        """Scale of the objective's residual vector: the target's spread.
+
+        The Ljung-Box objective alone is already dimensionless (autocorrelations).
+        """
+        if self.objective == "ljung_box":
+            return 1.0
+        for scale in (np.sqrt(np.mean(np.var(y, axis=0))), np.sqrt(np.mean(y**2))):
+            if np.isfinite(scale) and scale > 0:
+                return float(scale)
+        return 1.0
 
     def _check_autograd(self):
         """Hook: models whose equations cannot run on torch raise here."""
@@ -384,6 +439,8 @@ class _ParameterSpec:
         eps = 1e-10 * np.where(inside, span, 1.0)
         self.x0 = np.clip(self.x0, self.lower + eps, self.upper - eps)
         self.n_free = self.x0.size
+        # Typical size of each free parameter: its starting value (1 at zero).
+        self.scale = np.where(self.x0 != 0, np.abs(self.x0), 1.0)
 
     @staticmethod
     def _bound(bounds, name):
@@ -435,6 +492,31 @@ class _ParameterSpec:
             else:
                 out[name] = float(chunk[0])
         return out
+
+
+def _stationary_at(result, z0, lower, upper, tol=1e-6):
+    """Whether ``least_squares`` judged a start ``z0`` it never left optimal.
+
+    A start is stationary when no free parameter's Jacobian column (a parameter
+    that changes the residuals) correlates with the residuals beyond ``tol``, in a
+    measure free of the units of both (the cosine of their angle); parameters held
+    at a bound by the gradient are not counted.
+    """
+    J = np.asarray(result.jac, dtype=float)
+    f = np.asarray(result.fun, dtype=float)
+    f_norm = np.linalg.norm(f)
+    if f_norm == 0:
+        return True  # a perfect fit
+    col_norm = np.linalg.norm(J, axis=0)
+    if np.any(col_norm == 0):
+        return False  # a parameter that does not change the residuals
+    cos = (J.T @ f) / (col_norm * f_norm)
+    # Descent moves along -cos: blocked where that leaves the bounds.
+    span = np.where(np.isfinite(upper - lower), upper - lower, 1.0)
+    at_lower = (z0 - lower) <= 1e-8 * span
+    at_upper = (upper - z0) <= 1e-8 * span
+    blocked = (at_lower & (cos > 0)) | (at_upper & (cos < 0))
+    return bool(np.all(np.abs(cos[~blocked]) < tol))
 
 
 def _fmt(value):

@@ -183,17 +183,33 @@ class ParametricModel(DomainModel):
             y_pred = self.func(X, xp=xp, **params)
         else:
             y_pred = self.func(X, **params)
-        if getattr(y_pred, "shape", None) is None or y_pred.shape[0] != X.shape[0]:
-            name = getattr(self.func, "__name__", repr(self.func))
-            raise ValueError(
-                f"{name} must return an array with one row per sample "
-                f"({X.shape[0]}); got {type(y_pred).__name__} with shape "
-                f"{getattr(y_pred, 'shape', None)}."
-            )
-        if y_pred.ndim == 1 and getattr(self, "n_outputs_", 1) > 1:
-            raise ValueError(
-                f"func returned shape {tuple(y_pred.shape)} but y has "
-                f"{self.n_outputs_} outputs; return (n_samples, n_outputs) or "
-                "(n_samples, 1) to share one prediction across outputs."
-            )
+        self._check_returned_shape(X, y_pred)
         return y_pred
+
+    def _check_returned_shape(self, X, y_pred):
+        """Raise a ValueError naming ``func`` when it returns the wrong shape."""
+        n = X.shape[0]
+        n_outputs = getattr(self, "n_outputs_", 1)
+        shape = getattr(y_pred, "shape", None)
+        shape = None if shape is None else tuple(int(d) for d in shape)
+        if n_outputs == 1:
+            expected = f"({n},) or ({n}, 1)"
+            ok = shape in ((n,), (n, 1))
+        else:
+            expected = (
+                f"({n}, {n_outputs}), or ({n}, 1) to share one prediction across "
+                "outputs"
+            )
+            ok = shape in ((n, n_outputs), (n, 1))
+        if not ok:
+            name = getattr(self.func, "__name__", repr(self.func))
+            got = (
+                f"a {type(y_pred).__name__} without a shape"
+                if shape is None
+                else f"shape {shape}"
+            )
+            raise ValueError(
+                f"func {name} returned {got}, but y has {n_outputs} "
+                f"output{'s' if n_outputs > 1 else ''} and {n} samples; expected "
+                f"shape {expected}."
+            )

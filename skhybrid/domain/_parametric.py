@@ -189,9 +189,12 @@ class ParametricModel(DomainModel):
     def _check_returned_shape(self, X, y_pred):
         """Raise a ValueError naming ``func`` when it returns the wrong shape."""
         n = X.shape[0]
-        n_outputs = getattr(self, "n_outputs_", 1)
         shape = getattr(y_pred, "shape", None)
         shape = None if shape is None else tuple(int(d) for d in shape)
+        # Before fit has seen y, any number of outputs will do.
+        n_outputs = getattr(self, "n_outputs_", None)
+        if n_outputs is None:
+            n_outputs = shape[1] if shape is not None and len(shape) == 2 else 1
         if n_outputs == 1:
             expected = f"({n},) or ({n}, 1)"
             ok = shape in ((n,), (n, 1))

@@ -4,7 +4,63 @@ scikit-learn's :class:`~sklearn.exceptions.ConvergenceWarning` is used for optim
 that stop before converging; the classes here cover what scikit-learn has no name for.
 """
 
-__all__ = ["NonWhiteResidualWarning", "TrainingDivergedError"]
+from sklearn.exceptions import (
+    InconsistentVersionWarning as _SklearnInconsistentVersionWarning,
+)
+
+__all__ = [
+    "InconsistentVersionWarning",
+    "NonWhiteResidualWarning",
+    "TrainingDivergedError",
+]
+
+
+class InconsistentVersionWarning(_SklearnInconsistentVersionWarning):
+    """An estimator is unpickled under other versions than it was pickled with.
+
+    Every skhybrid estimator records the versions of skhybrid, scikit-learn, torch
+    and skorch in its pickle; loading it where any of them differs warns with this
+    class. It subclasses scikit-learn's
+    :class:`~sklearn.exceptions.InconsistentVersionWarning`, so a filter on that
+    one covers both.
+
+    Parameters
+    ----------
+    estimator_name : str
+        Class name of the unpickled estimator.
+    original_versions : dict of str to str or None
+        Package versions recorded in the pickle.
+    current_versions : dict of str to str or None
+        Package versions installed now.
+
+    Attributes
+    ----------
+    differences : dict of str to (str, str)
+        Each package whose versions differ: (pickled, installed).
+    """
+
+    def __init__(self, *, estimator_name, original_versions, current_versions):
+        self.estimator_name = estimator_name
+        self.original_versions = dict(original_versions)
+        self.current_versions = dict(current_versions)
+        self.differences = {
+            name: (self.original_versions.get(name), now)
+            for name, now in self.current_versions.items()
+            if self.original_versions.get(name) != now
+        }
+        # scikit-learn's attributes, for code that reads them.
+        self.original_sklearn_version = self.original_versions.get("scikit-learn")
+        self.current_sklearn_version = self.current_versions.get("scikit-learn")
+
+    def __str__(self):
+        differ = ", ".join(
+            f"{name} {old} (now {new})" for name, (old, new) in self.differences.items()
+        )
+        return (
+            f"Trying to unpickle estimator {self.estimator_name} made with {differ}. "
+            "This might lead to breaking code or invalid results: refit the model "
+            "under the installed versions, or install the versions it was made with."
+        )
 
 
 class NonWhiteResidualWarning(UserWarning):

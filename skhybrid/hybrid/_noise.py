@@ -19,12 +19,14 @@ import warnings
 import numpy as np
 from sklearn.utils import check_random_state
 
+from skhybrid.utils._pickle import VersionedPickleMixin
+
 __all__ = ["AutoRegressiveNoise", "GaussianNoise", "make_noise_model"]
 
 NOISE_MODELS = ("gaussian", "ar")
 
 
-class GaussianNoise:
+class GaussianNoise(VersionedPickleMixin):
     """Independent Gaussian noise with a mean and a covariance across outputs.
 
     Attributes
@@ -103,7 +105,7 @@ class GaussianNoise:
         return self.mean_ + z @ root.T
 
 
-class AutoRegressiveNoise:
+class AutoRegressiveNoise(VersionedPickleMixin):
     """One autoregressive process per output, order chosen by an information criterion.
 
     For each output, :func:`statsmodels.tsa.ar_model.ar_select_order` picks the lags

@@ -1,0 +1,83 @@
+"""Pickles record the versions that made them and warn when loaded under others."""
+
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+import sklearn.exceptions
+from sklearn.base import clone
+
+from skhybrid.exceptions import InconsistentVersionWarning
+from skhybrid.hybrid import AutoRegressiveNoise, GaussianNoise
+from skhybrid.utils import all_estimators
+from skhybrid.utils._pickle import VersionedPickleMixin, package_versions
+from skhybrid.utils._testing import fast_instances
+
+
+def test_every_estimator_records_versions():
+    for name, cls in all_estimators():
+        assert issubclass(cls, VersionedPickleMixin), name
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    """Every estimator, fitted once, and both noise models."""
+    return list(_fitted(np.random.default_rng(0)))
+
+
+def _fitted(rng):
+    X = rng.standard_normal((80, 4))
+    y = np.column_stack([X[:, 0] + 0.1 * X[:, 3], np.sin(X[:, 1]), X[:, 2]])
+    residuals = rng.standard_normal((200, 2))
+    for estimator in fast_instances():
+        yield type(estimator).__name__, clone(estimator).fit(X, y)
+    yield "GaussianNoise", GaussianNoise().fit(residuals)
+    yield "AutoRegressiveNoise", AutoRegressiveNoise(max_lag=2).fit(residuals)
+
+
+def _edit(blob, package, fake):
+    """The pickle with ``package``'s recorded version replaced by ``fake``."""
+    real = package_versions()[package].encode()
+    assert len(fake) == len(real)  # pickled strings are length-prefixed
+    assert real in blob
+    return blob.replace(real, fake.encode())
+
+
+@pytest.mark.parametrize("package", ["torch", "skhybrid", "scikit-learn", "skorch"])
+def test_pickle_claiming_other_versions_warns_on_load(fitted, package):
+    real = package_versions()[package]
+    fake = "9" * len(real)
+    for name, estimator in fitted:
+        blob = pickle.dumps(estimator)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # same versions: not a word
+            restored = pickle.loads(blob)
+        assert type(restored) is type(estimator)
+        with pytest.warns(InconsistentVersionWarning) as record:
+            pickle.loads(_edit(blob, package, fake))
+        messages = [str(w.message) for w in record]
+        assert any(
+            f"estimator {name} made with {package} {fake} (now {real})" in m
+            for m in messages
+        ), (name, messages)
+        warning = next(w.message for w in record if name in str(w.message))
+        assert warning.differences == {package: (fake, real)}
+
+
+def test_warning_is_scikit_learns_kind():
+    # A filter on scikit-learn's warning covers skhybrid's pickles too.
+    assert issubclass(
+        InconsistentVersionWarning, sklearn.exceptions.InconsistentVersionWarning
+    )
+
+
+def test_fitted_model_predicts_the_same_after_a_round_trip(fitted, rng):
+    X = rng.standard_normal((80, 4))
+    for name, estimator in fitted:
+        if not hasattr(estimator, "predict"):
+            continue
+        restored = pickle.loads(pickle.dumps(estimator))
+        np.testing.assert_array_equal(
+            restored.predict(X), estimator.predict(X), err_msg=name
+        )

@@ -1,7 +1,9 @@
 """The ``skhybrid`` command: run the paper's experiments and write a report."""
 
 import argparse
+import contextlib
 import importlib.util
+import os
 import shlex
 import sys
 import time
@@ -24,6 +26,11 @@ examples:
   skhybrid run pendulum --quick          a small run, about a minute on 2 cores
   skhybrid run pendulum --out results    the full pendulum run (under 10 minutes)
   skhybrid run all --n-jobs 2 --seed 1   every system, two models at a time
+  skhybrid run pendulum --resume         finish an interrupted run, same report
+  skhybrid run all --dask HOST:8786      fit the models on a Dask cluster
+
+Every model's scores and fitted model are written to --out as soon as it
+finishes; after a Ctrl-C, the same command (or with --resume) carries on.
 """
 
 
@@ -46,13 +53,19 @@ def _positive_int(text):
     return value
 
 
+#: Largest seed: numpy's and scikit-learn's seeds are 32-bit unsigned integers.
+MAX_SEED = 2**32 - 1
+
+
 def _seed(text):
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a seed >= 0, got {text!r}")
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(
+            f"expected a seed between 0 and {MAX_SEED} (2**32 - 1), got {text!r}"
+        )
     return value
 
 
@@ -103,6 +116,25 @@ def _build_parser():
         "--seed", type=_seed, default=0, metavar="S", help="seed of data and models"
     )
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    again = run.add_mutually_exclusive_group()
+    again.add_argument(
+        "--resume",
+        action="store_true",
+        help="carry on a run in --out: skip its finished models (the same command "
+        "without --resume also carries on an unfinished run)",
+    )
+    again.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a finished run (or other results) already in --out",
+    )
+    run.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="fit the models on the Dask cluster whose scheduler is at ADDRESS "
+        "(e.g. tcp://host:8786), or on a local cluster of --n-jobs workers with "
+        "'local'; needs dask[distributed]",
+    )
     sub.add_parser("list", help="list the systems and what they show")
     return parser
 
@@ -140,6 +172,12 @@ def missing_requirements(modules=RUN_REQUIREMENTS):
     return lines
 
 
+#: What ``skhybrid run --dask`` imports in addition.
+DASK_REQUIREMENTS = {
+    "distributed": 'pip install "dask[distributed]" (the skhybrid[dask] extra)',
+}
+
+
 def _list(out):
     from skhybrid.experiments import SYSTEMS
 
@@ -148,37 +186,157 @@ def _list(out):
         out.write(f"{name:<16} {system.title} (section {system.section}; {splits})\n")
 
 
+def _error(message):
+    sys.stderr.write(f"skhybrid: error: {message}\n")
+
+
+def _identity(names, quick, seed):
+    """What makes two runs the same: a resumed run must match it."""
+    import skhybrid
+    from skhybrid.experiments import ExperimentSettings
+
+    settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(seed)
+    return {
+        "skhybrid": skhybrid.__version__,
+        "systems": names,
+        "quick": quick,
+        "seed": seed,
+        "settings": settings.to_dict(),
+    }
+
+
+def _resume_command(argv):
+    """The command line that carries on this run."""
+    words = [w for w in argv if w != "--overwrite"]
+    if "--resume" not in words:
+        words.append("--resume")
+    return "skhybrid " + shlex.join(words)
+
+
+@contextlib.contextmanager
+def _dask_backend(address, n_workers):
+    """joblib's Dask backend on the cluster at ``address`` (or a local one)."""
+    import joblib
+    from dask.distributed import Client, LocalCluster
+
+    cluster = None
+    try:
+        if address == "local":
+            # One thread per worker process: each fits one model at a time.
+            cluster = LocalCluster(
+                n_workers=n_workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+            )
+            client = Client(cluster)
+        else:
+            client = Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        if cluster is not None:
+            cluster.close()
+        raise _DaskError(
+            f"cannot reach the Dask scheduler at {address}: {exc}"
+        ) from None
+    try:
+        with joblib.parallel_config(backend="dask"):
+            yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+class _DaskError(Exception):
+    pass
+
+
 def main(argv=None):
     """Entry point of the ``skhybrid`` command; returns the exit status."""
     parser = _build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     if args.command == "list":
         _list(sys.stdout)
         return 0
 
-    missing = missing_requirements()
+    needed = dict(RUN_REQUIREMENTS)
+    if args.dask is not None:
+        needed.update(DASK_REQUIREMENTS)
+    missing = missing_requirements(needed)
     if missing:
         for line in missing:
-            sys.stderr.write(f"skhybrid: error: `skhybrid run` needs {line}\n")
+            verb = "`skhybrid run --dask`" if "dask" in line else "`skhybrid run`"
+            _error(f"{verb} needs {line}")
         return 2
 
-    from skhybrid.experiments import SYSTEMS, run_experiment, write_report
+    from skhybrid.experiments import SYSTEMS
+    from skhybrid.experiments._store import RunFolder, RunFolderError
 
-    start = time.perf_counter()
     names = list(SYSTEMS) if args.system == "all" else [args.system]
-    results = [
-        run_experiment(
-            name,
-            quick=args.quick,
-            seed=args.seed,
-            n_jobs=args.n_jobs,
-            progress=not args.no_progress,
+    command = "skhybrid " + shlex.join(argv)
+    folder = RunFolder(args.out)
+    try:
+        folder.prepare()  # the output folder is checked and locked before training
+    except RunFolderError as exc:
+        _error(str(exc))
+        return 2
+    try:
+        return _run(args, argv, names, command, folder)
+    except RunFolderError as exc:
+        _error(str(exc))
+        return 2
+    finally:
+        folder.lock.release()
+
+
+def _run(args, argv, names, command, folder):
+    from skhybrid.experiments import (
+        SYSTEMS,
+        ExperimentSettings,
+        check_claims,
+        model_zoo,
+        write_report,
+    )
+
+    identity = _identity(names, args.quick, args.seed)
+    n_finished = folder.start(
+        identity, command, overwrite=args.overwrite, resume=args.resume
+    )
+    settings = (ExperimentSettings.quick if args.quick else ExperimentSettings.full)(
+        args.seed
+    )
+    n_models = sum(len(model_zoo(SYSTEMS[name], settings)) for name in names)
+    if n_finished:
+        sys.stdout.write(
+            f"resuming: {n_finished} of {n_models} models already finished in "
+            f"{folder.path}\n"
         )
-        for name in names
-    ]
-    wall = time.perf_counter() - start
-    command = "skhybrid " + shlex.join(sys.argv[1:] if argv is None else argv)
-    paths = write_report(results, args.out, command=command, wall_time=wall)
+    start = time.perf_counter()
+    try:
+        with contextlib.ExitStack() as stack:
+            n_jobs = args.n_jobs
+            if args.dask is not None:
+                n_workers = args.n_jobs if args.n_jobs > 0 else (os.cpu_count() or 1)
+                try:
+                    client = stack.enter_context(_dask_backend(args.dask, n_workers))
+                except _DaskError as exc:
+                    _error(str(exc))
+                    return 2
+                address = client.scheduler.address
+                sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
+                n_jobs = -1  # every worker of the cluster
+            results = _fit_all(args, names, folder, n_jobs=n_jobs)
+        wall = time.perf_counter() - start
+        paths = write_report(results, folder.path, command=command, wall_time=wall)
+        folder.complete()
+    except KeyboardInterrupt:
+        done = sum(len(folder.finished(name)) for name in names)
+        sys.stderr.write(
+            f"\nskhybrid: interrupted: {done} of {n_models} models are finished and "
+            f"kept in {folder.path}; resume with: {_resume_command(argv)}\n"
+        )
+        return 130
     total = time.perf_counter() - start
     sys.stdout.write(f"wrote {paths['html']} ({total:.1f} s)\n")
     if args.quick:
@@ -187,12 +345,26 @@ def main(argv=None):
             "below are judged on the full run\n"
         )
     for result in results:
-        from skhybrid.experiments import check_claims
-
         for claim in check_claims(result):
             word = "holds" if claim["passed"] else "FAILS"
             sys.stdout.write(f"  [{word}] {claim['claim']}: {claim['detail']}\n")
     return 0
+
+
+def _fit_all(args, names, folder, *, n_jobs):
+    from skhybrid import experiments
+
+    return [
+        experiments.run_experiment(
+            name,
+            quick=args.quick,
+            seed=args.seed,
+            n_jobs=n_jobs,
+            progress=not args.no_progress,
+            folder=folder,
+        )
+        for name in names
+    ]
 
 
 if __name__ == "__main__":  # pragma: no cover

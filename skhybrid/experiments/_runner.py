@@ -1,12 +1,15 @@
 """Fit the model zoo on one system and score it on its test sets."""
 
+import contextlib
 import logging
 import os
+import signal
 import time
 import warnings
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, parallel_config
+from joblib.parallel import get_active_backend
 
 from skhybrid.diagnostics import ljung_box_test, rmse_db
 from skhybrid.experiments._progress import ProgressBars, attach_epoch_logger
@@ -100,12 +103,38 @@ def _n_epochs(estimator):
     return None
 
 
-def _fit_one(name, estimator, X, y, tests, n_threads):
-    """Fit one model and predict every test split (runs in a joblib worker)."""
-    import torch
+@contextlib.contextmanager
+def _interrupts_raise():
+    """Make a Ctrl-C during the body raise KeyboardInterrupt after it.
 
-    torch.set_num_threads(n_threads)
-    with warnings.catch_warnings(record=True) as caught:
+    skorch catches KeyboardInterrupt in ``fit`` and returns the network trained so
+    far, as if training had finished: a model cut short would be recorded as
+    complete. Here a SIGINT is remembered and raised again once the body returns.
+    Only the main thread of a process receives signals: elsewhere (a Dask worker's
+    thread) this does nothing.
+    """
+    hit = []
+
+    def handler(signum, frame):
+        hit.append(signum)
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if hit:
+        raise KeyboardInterrupt
+
+
+def _fit_one(name, estimator, X, y, tests):
+    """Fit one model and predict every test split (runs in a joblib worker)."""
+    with warnings.catch_warnings(record=True) as caught, _interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()
         estimator.fit(X, y)
@@ -119,6 +148,7 @@ def _fit_one(name, estimator, X, y, tests, n_threads):
         }
     )
     return name, {
+        "estimator": estimator,
         "predictions": predictions,
         "fit_time": fit_time,
         "n_epochs": _n_epochs(estimator),
@@ -127,38 +157,44 @@ def _fit_one(name, estimator, X, y, tests, n_threads):
     }
 
 
+def _model_rows(result, split, model):
+    """Scores of one model on one test split, one row per output."""
+    s = result.settings
+    data = result.splits[split]
+    y = np.asarray(data.y, dtype=float)
+    oracle_rmse = np.sqrt(np.mean((y - data.oracle) ** 2, axis=0))
+    pred = result.predictions[split][model]
+    residual = y - pred
+    rmse = np.sqrt(np.mean(residual**2, axis=0))
+    whiteness = ljung_box_test(residual, s.lags)
+    windowed = rmse_db(y, pred, window=s.window)
+    fit = result.fits.get(model, {})
+    return [
+        {
+            "system": result.system.name,
+            "seed": s.seed,
+            "model": model,
+            "split": split,
+            "output": output,
+            "rmse": float(rmse[j]),
+            "rmse_db": float(20 * np.log10(rmse[j])),
+            "rmse_over_oracle": float(rmse[j] / oracle_rmse[j]),
+            "median_window_rmse_db": float(np.median(windowed[:, j])),
+            "residual_std": float(np.std(residual[:, j])),
+            "ljung_box_stat": float(whiteness.statistic[j]),
+            "ljung_box_pvalue": float(whiteness.pvalue[j]),
+            "fit_time_s": fit.get("fit_time"),
+            "n_epochs": fit.get("n_epochs"),
+        }
+        for j, output in enumerate(result.target_names)
+    ]
+
+
 def _score(result):
     """Fill ``result.rows`` from the predictions."""
-    s = result.settings
     for split in result.test_splits:
-        data = result.splits[split]
-        y = np.asarray(data.y, dtype=float)
-        oracle_rmse = np.sqrt(np.mean((y - data.oracle) ** 2, axis=0))
-        for model, pred in result.predictions[split].items():
-            residual = y - pred
-            rmse = np.sqrt(np.mean(residual**2, axis=0))
-            whiteness = ljung_box_test(residual, s.lags)
-            windowed = rmse_db(y, pred, window=s.window)
-            fit = result.fits.get(model, {})
-            for j, output in enumerate(result.target_names):
-                result.rows.append(
-                    {
-                        "system": result.system.name,
-                        "seed": s.seed,
-                        "model": model,
-                        "split": split,
-                        "output": output,
-                        "rmse": float(rmse[j]),
-                        "rmse_db": float(20 * np.log10(rmse[j])),
-                        "rmse_over_oracle": float(rmse[j] / oracle_rmse[j]),
-                        "median_window_rmse_db": float(np.median(windowed[:, j])),
-                        "residual_std": float(np.std(residual[:, j])),
-                        "ljung_box_stat": float(whiteness.statistic[j]),
-                        "ljung_box_pvalue": float(whiteness.pvalue[j]),
-                        "fit_time_s": fit.get("fit_time"),
-                        "n_epochs": fit.get("n_epochs"),
-                    }
-                )
+        for model in result.predictions[split]:
+            result.rows.extend(_model_rows(result, split, model))
 
 
 def _hull_shares(splits, n_steps):
@@ -176,10 +212,45 @@ def _hull_shares(splits, n_steps):
     }
 
 
+def _dask_client(backend):
+    """The Dask client of joblib's active backend, or None."""
+    if type(backend).__name__ == "DaskDistributedBackend":
+        return backend.client
+    return None
+
+
+@contextlib.contextmanager
+def _local_threads(backend, n_threads):
+    """Give each of joblib's local worker processes ``n_threads`` threads.
+
+    joblib's ``inner_max_num_threads`` sets the thread count of torch and the BLAS
+    libraries in the workers it starts. Only the default (loky) backend is
+    configured here: another backend chosen by the caller (Dask, threads) keeps
+    its own settings.
+    """
+    from joblib.parallel import LokyBackend
+
+    if isinstance(backend, LokyBackend) and backend.inner_max_num_threads is None:
+        with parallel_config(backend="loky", inner_max_num_threads=n_threads):
+            yield
+    else:
+        yield
+
+
 def run_experiment(
-    system, *, settings=None, quick=False, seed=0, n_jobs=1, progress=False
+    system,
+    *,
+    settings=None,
+    quick=False,
+    seed=0,
+    n_jobs=1,
+    progress=False,
+    folder=None,
 ):
     """Fit the model zoo of the paper's section 6 on one system and score it.
+
+    Models are fitted with joblib, on the active backend: local processes by
+    default, or a Dask cluster inside ``joblib.parallel_config(backend="dask")``.
 
     Parameters
     ----------
@@ -194,10 +265,15 @@ def run_experiment(
     seed : int, default=0
         Seed of the data and the models (used only when ``settings`` is None).
     n_jobs : int, default=1
-        Models fitted in parallel with joblib (-1: all cores).
+        Models fitted in parallel with joblib (-1: all cores, or every worker of a
+        Dask cluster).
     progress : bool, default=False
         Show progress bars on standard error: models fitted, and epochs of all
-        networks (counted across joblib workers).
+        networks (counted across joblib workers, or Dask workers).
+    folder : RunFolder or None, default=None
+        Where each model's fitted estimator, predictions and scores are written as
+        soon as it finishes; models already finished there are loaded, not fitted
+        again.
 
     Returns
     -------
@@ -221,36 +297,50 @@ def run_experiment(
     result.hull = _hull_shares(splits, settings.n_steps)
 
     zoo = model_zoo(system, settings)
-    cores = os.cpu_count() or 1
-    workers = cores if n_jobs in (-1, None) else max(1, min(n_jobs, len(zoo)))
-    n_threads = max(1, cores // workers)
+    done = {} if folder is None else folder.finished(system.name)
+    done = {name: record for name, record in done.items() if name in zoo}
+    for name, record in done.items():
+        result.fits[name] = record["fit"]
+        if record["params"]:
+            result.params[name] = record["params"]
+        for split, pred in folder.load_predictions(system.name, record).items():
+            result.predictions[split][name] = pred
+
     train = splits["train"]
     tests = [(split, splits[split].X) for split in result.test_splits]
     # The slowest fits (recurrent hybrids) first, so parallel workers finish together.
     order = sorted(zoo, key=lambda name: ("rnn" not in name, "ensemble" not in name))
-    bars = ProgressBars(len(zoo), system.name) if progress else None
-    if bars is not None:
-        for name in order:
-            attach_epoch_logger(zoo[name], bars.path, name)
-    jobs = (
-        delayed(_fit_one)(name, zoo[name], train.X, train.y, tests, n_threads)
-        for name in order
-    )
-    outputs = Parallel(n_jobs=workers, return_as="generator_unordered")(jobs)
-    for name, out in outputs:
-        result.fits[name] = {
-            "fit_time": out["fit_time"],
-            "n_epochs": out["n_epochs"],
-            "warnings": out["warnings"],
-        }
-        if out["params"]:
-            result.params[name] = out["params"]
-        for split, pred in out["predictions"].items():
-            result.predictions[split][name] = np.asarray(pred, dtype=float)
+    todo = [name for name in order if name not in done]
+    backend, _ = get_active_backend()
+    client = _dask_client(backend)
+    cores = os.cpu_count() or 1
+    if n_jobs in (-1, None):
+        workers = -1 if client is not None else cores
+    else:
+        workers = max(1, min(n_jobs, len(todo) or 1))
+    n_threads = max(1, cores // max(workers, 1))
+    bars = None
+    if progress:
+        bars = ProgressBars(len(zoo), system.name, client=client, n_done=len(done))
+        for name in todo:
+            attach_epoch_logger(zoo[name], bars.sink, name)
+    try:
+        if todo:
+            jobs = (
+                delayed(_fit_one)(name, zoo[name], train.X, train.y, tests)
+                for name in todo
+            )
+            with _local_threads(backend, n_threads):
+                outputs = Parallel(n_jobs=workers, return_as="generator_unordered")(
+                    jobs
+                )
+                for name, out in outputs:
+                    _record(result, name, out, folder)
+                    if bars is not None:
+                        bars.model_done(name, out["fit_time"], out["n_epochs"])
+    finally:
         if bars is not None:
-            bars.model_done(name, out["fit_time"], out["n_epochs"])
-    if bars is not None:
-        bars.close()
+            bars.close()
     # Keep the zoo's order (and the oracle first) whatever order fits finished in.
     for split in result.test_splits:
         preds = result.predictions[split]
@@ -260,3 +350,32 @@ def run_experiment(
     _score(result)
     result.wall_time = time.perf_counter() - start
     return result
+
+
+def _record(result, name, out, folder):
+    """Add one finished model to ``result`` and, with a folder, write it there."""
+    fit = {
+        "fit_time": out["fit_time"],
+        "n_epochs": out["n_epochs"],
+        "warnings": out["warnings"],
+    }
+    predictions = {
+        split: np.asarray(pred, dtype=float)
+        for split, pred in out["predictions"].items()
+    }
+    result.fits[name] = fit
+    if out["params"]:
+        result.params[name] = out["params"]
+    for split, pred in predictions.items():
+        result.predictions[split][name] = pred
+    if folder is not None:
+        scores = [
+            row for split in predictions for row in _model_rows(result, split, name)
+        ]
+        folder.save_model(
+            result.system.name,
+            name,
+            out["estimator"],
+            predictions,
+            {"fit": fit, "params": out["params"], "scores": scores},
+        )

@@ -1,0 +1,360 @@
+"""The run folder: every finished model's scores and fitted model, kept as it lands.
+
+A run writes into one folder (``skhybrid run --out DIR``)::
+
+    DIR/
+      .lock                      held while a run writes here (its pid inside)
+      run.json                   the run: systems, seed, settings, command, status
+      models/SYSTEM/MODEL.joblib the fitted model
+      models/SYSTEM/MODEL.npz    its predictions on every test split
+      models/SYSTEM/MODEL.json   its fit record and scores; written last, so a model
+                                 is finished exactly when this file exists
+      results.csv, results.json, report.html, *.png   once every model is finished
+
+Every file is written to a temporary name and renamed into place, so an interrupt
+leaves either the whole file or none of it.
+"""
+
+import json
+import os
+import re
+import shutil
+import socket
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "RUN_FORMAT",
+    "FolderLock",
+    "RunFolder",
+    "RunFolderError",
+]
+
+#: Version of the folder's layout, recorded in ``run.json``.
+RUN_FORMAT = 1
+
+#: What a finished report leaves in the folder (besides the figures).
+REPORT_FILES = ("results.csv", "results.json", "report.html")
+
+
+class RunFolderError(Exception):
+    """The output folder cannot be used; the message says why and what to do."""
+
+
+def _slug(text):
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
+
+
+def _write_atomic(path, write):
+    """Call ``write(tmp_path)`` and rename the result to ``path``."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process: it exists
+        return True
+    except OSError:
+        return False
+    return True
+
+
+class FolderLock:
+    """An exclusive lock on a folder: a ``.lock`` file holding the owner's pid.
+
+    The file is created exclusively (``O_CREAT | O_EXCL``), so two runs cannot both
+    take it. A lock whose process is gone (on this host) is stale: it is taken over.
+    A lock held by a live process, or by another host, is refused.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The folder to lock (it must exist).
+    """
+
+    NAME = ".lock"
+
+    def __init__(self, folder):
+        self.path = Path(folder) / self.NAME
+        self.held = False
+        self.stale_owner = None
+
+    def _read(self):
+        try:
+            return json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def acquire(self):
+        """Take the lock or raise :class:`RunFolderError` naming its holder."""
+        record = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "started": time.strftime("%Y-%m-%d %H:%M:%S"),
+        }
+        for _ in range(3):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                owner = self._read()
+                if owner is None:
+                    # Being written by its owner this instant, or garbage: look again.
+                    time.sleep(0.2)
+                    owner = self._read()
+                if owner is not None and (
+                    owner.get("host") != record["host"] or _pid_alive(owner["pid"])
+                ):
+                    raise RunFolderError(
+                        f"{self.path.parent} is in use by another skhybrid run "
+                        f"(pid {owner.get('pid')} on {owner.get('host')}, started "
+                        f"{owner.get('started')}); wait for it to finish or choose "
+                        f"another --out (if that run is gone, delete {self.path})"
+                    ) from None
+                # Stale: its process is gone. Take it over.
+                self.stale_owner = owner
+                try:
+                    self.path.unlink()
+                except FileNotFoundError:
+                    pass
+                continue
+            with os.fdopen(fd, "w") as f:
+                json.dump(record, f)
+            self.held = True
+            return self
+        raise RunFolderError(
+            f"could not lock {self.path.parent}: another run keeps taking {self.path}"
+        )
+
+    def release(self):
+        """Remove the lock file if this process holds it."""
+        if self.held:
+            owner = self._read()
+            if owner is None or owner.get("pid") == os.getpid():
+                try:
+                    self.path.unlink()
+                except FileNotFoundError:
+                    pass
+            self.held = False
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+class RunFolder:
+    """A run's output folder: checks, the run's identity, and finished models.
+
+    Parameters
+    ----------
+    path : str or Path
+        The folder.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.lock = FolderLock(self.path)
+
+    # -- before any training ---------------------------------------------------------
+    def prepare(self):
+        """Create the folder and take its lock; raise :class:`RunFolderError`."""
+        path = self.path
+        if path.exists() and not path.is_dir():
+            raise RunFolderError(f"--out {path} is a file, not a folder")
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RunFolderError(
+                f"--out {path} cannot be created: {exc.strerror or exc}"
+            ) from None
+        try:
+            self.lock.acquire()
+        except RunFolderError:
+            raise
+        except OSError as exc:
+            raise RunFolderError(
+                f"--out {path} is not writable: {exc.strerror or exc}"
+            ) from None
+        try:  # the lock is written; so must the rest be
+            _write_atomic(path / ".write-test", lambda p: p.write_text("ok"))
+            (path / ".write-test").unlink()
+        except OSError as exc:
+            self.lock.release()
+            raise RunFolderError(
+                f"--out {path} is not writable: {exc.strerror or exc}"
+            ) from None
+        return self
+
+    def read_manifest(self):
+        """The ``run.json`` of the run in the folder, or None."""
+        try:
+            return json.loads((self.path / "run.json").read_text())
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError):
+            return {"status": "unreadable"}
+
+    def has_foreign_results(self):
+        """Whether the folder holds a report that no ``run.json`` describes."""
+        return any((self.path / name).exists() for name in REPORT_FILES)
+
+    def start(self, identity, command, *, overwrite=False, resume=False):
+        """Decide what happens to what the folder holds, and record the run.
+
+        Parameters
+        ----------
+        identity : dict
+            What makes two runs the same (systems, seed, settings).
+        command : str
+            The command line, recorded for the resume hint.
+        overwrite : bool, default=False
+            Remove a previous run's models and report first.
+        resume : bool, default=False
+            Also accept a finished run of the same identity (its report is
+            written again from the stored models, with no training).
+
+        Returns
+        -------
+        n_finished : int
+            Models already finished in the folder (kept and skipped).
+        """
+        manifest = self.read_manifest()
+        if overwrite:
+            self.clear()
+            manifest = None
+        elif manifest is None and self.has_foreign_results():
+            raise RunFolderError(
+                f"--out {self.path} already holds results (report.html or "
+                "results.csv) that this run would overwrite; pass --overwrite to "
+                "replace them, or choose another --out"
+            )
+        elif manifest is not None and not self._any_finished(manifest):
+            # A run that finished nothing: nothing to lose, start afresh.
+            self.clear()
+            manifest = None
+        if manifest is not None:
+            same = manifest.get("identity") == identity
+            if manifest.get("status") == "complete" and not (same and resume):
+                raise RunFolderError(
+                    f"--out {self.path} already holds a finished run "
+                    f"(`{manifest.get('command')}`); pass --overwrite to replace it"
+                    + (", or --resume to write its report again" if same else "")
+                    + ", or choose another --out"
+                )
+            if not same:
+                raise RunFolderError(
+                    f"--out {self.path} holds an unfinished run of other settings "
+                    f"(`{manifest.get('command')}`); resume it with that command, "
+                    "pass --overwrite to replace it, or choose another --out"
+                )
+        n_finished = sum(
+            len(self.finished(system)) for system in identity.get("systems", [])
+        )
+        self.write_manifest(
+            {
+                "format": RUN_FORMAT,
+                "status": "running",
+                "command": command,
+                "identity": identity,
+            }
+        )
+        return n_finished
+
+    def _any_finished(self, manifest):
+        systems = (manifest.get("identity") or {}).get("systems") or []
+        return any(self.finished(system) for system in systems)
+
+    def write_manifest(self, manifest):
+        text = json.dumps(manifest, indent=1)
+        _write_atomic(self.path / "run.json", lambda p: p.write_text(text))
+
+    def complete(self):
+        """Mark the run finished (after its report is written)."""
+        manifest = self.read_manifest() or {}
+        manifest["status"] = "complete"
+        self.write_manifest(manifest)
+
+    def clear(self):
+        """Remove what a previous run wrote (models, report, figures, run.json)."""
+        shutil.rmtree(self.path / "models", ignore_errors=True)
+        for name in (*REPORT_FILES, "run.json"):
+            (self.path / name).unlink(missing_ok=True)
+        for png in self.path.glob("*.png"):
+            png.unlink()
+
+    # -- models ------------------------------------------------------------------
+    def _model_dir(self, system):
+        return self.path / "models" / _slug(system)
+
+    def finished(self, system):
+        """``{model name: record}`` of the finished models of ``system``."""
+        folder = self._model_dir(system)
+        out = {}
+        if not folder.is_dir():
+            return out
+        for path in sorted(folder.glob("*.json")):
+            try:
+                record = json.loads(path.read_text())
+            except (OSError, ValueError):
+                continue  # a damaged record: that model runs again
+            if (folder / record.get("predictions", "")).is_file():
+                out[record["model"]] = record
+        return out
+
+    def load_predictions(self, system, record):
+        """``{split: ndarray}`` of a finished model's predictions."""
+        with np.load(self._model_dir(system) / record["predictions"]) as data:
+            return {split: data[split] for split in data.files}
+
+    def save_model(self, system, name, estimator, predictions, record):
+        """Write one finished model: fitted estimator, predictions, then record.
+
+        Parameters
+        ----------
+        system : str
+            The system's name.
+        name : str
+            The model's name in the zoo.
+        estimator : estimator or None
+            The fitted model (pickled with joblib); None writes no pickle.
+        predictions : dict of str to ndarray
+            Predictions on each test split.
+        record : dict
+            Fit record and scores (JSON-serialisable); ``model``, ``predictions``
+            and ``estimator`` keys are added.
+        """
+        import joblib
+
+        folder = self._model_dir(system)
+        folder.mkdir(parents=True, exist_ok=True)
+        stem = _slug(name)
+        record = dict(record, model=name, predictions=f"{stem}.npz")
+        if estimator is not None:
+
+            def dump(p):
+                with open(p, "wb") as f:
+                    joblib.dump(estimator, f)
+
+            _write_atomic(folder / f"{stem}.joblib", dump)
+            record["estimator"] = f"{stem}.joblib"
+
+        def save(p):
+            with open(p, "wb") as f:
+                np.savez(f, **predictions)
+
+        _write_atomic(folder / f"{stem}.npz", save)
+        text = json.dumps(record, indent=1)
+        _write_atomic(folder / f"{stem}.json", lambda p: p.write_text(text))

@@ -172,6 +172,9 @@ def missing_requirements(modules=RUN_REQUIREMENTS):
     return lines
 
 
+#: How long ``skhybrid run --dask ADDRESS`` tries to reach the scheduler.
+DASK_CONNECT_TIMEOUT = "10s"
+
 #: What ``skhybrid run --dask`` imports in addition.
 DASK_REQUIREMENTS = {
     "distributed": 'pip install "dask[distributed]" (the skhybrid[dask] extra)',
@@ -231,7 +234,7 @@ def _dask_backend(address, n_workers):
             )
             client = Client(cluster)
         else:
-            client = Client(address, timeout="10s")
+            client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
     except (OSError, TimeoutError, ValueError) as exc:
         if cluster is not None:
             cluster.close()

@@ -50,7 +50,15 @@ def test_help_explains_run(capsys):
         (["fly"], "invalid choice: 'fly'"),
         (["run", "pendle"], "invalid choice: 'pendle'"),
         (["run", "pendulum", "--n-jobs", "0"], "got '0'"),
-        (["run", "pendulum", "--seed", "-3"], "expected a seed >= 0, got '-3'"),
+        (
+            ["run", "pendulum", "--seed", "-3"],
+            "between 0 and 4294967295 (2**32 - 1), got '-3'",
+        ),
+        (
+            ["run", "pendulum", "--seed", str(2**32)],
+            f"between 0 and 4294967295 (2**32 - 1), got '{2**32}'",
+        ),
+        (["run", "pendulum", "--resume", "--overwrite"], "not allowed with"),
         (["run", "pendulum", "--quik"], "unrecognized arguments: --quik"),
     ],
 )
@@ -208,4 +216,3 @@ def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path
     )
     assert err == [expected]
     assert not (tmp_path / "r").exists()
-

@@ -1,0 +1,352 @@
+"""`skhybrid run` never loses work: checks before training, results as models
+finish, Ctrl-C, --resume, --overwrite and a lock against concurrent runs.
+
+Most tests run a small zoo (physics, a linear model and two small networks) on the
+quick pendulum data so that they stay fast; one slow test interrupts and resumes
+the real quick run.
+"""
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from skorch.callbacks import Callback
+
+from skhybrid import experiments
+from skhybrid.cli import main
+from skhybrid.experiments import _report, _runner
+from skhybrid.experiments._store import FolderLock, RunFolder, RunFolderError
+from skhybrid.hybrid import HybridBoostingRegressor
+from skhybrid.neural import DenseRegressor
+
+TINY = ["physics (refit)", "linear", "dense", "physics+dense"]
+
+
+class CtrlCAtEpoch(Callback):
+    """Send this process a SIGINT (a Ctrl-C) at the end of epoch ``epoch``."""
+
+    def __init__(self, epoch):
+        self.epoch = epoch
+
+    def on_epoch_end(self, net, **kwargs):
+        if len(net.history) == self.epoch:
+            signal.raise_signal(signal.SIGINT)
+
+
+def _tiny_zoo(interrupt_dense=False):
+    real = experiments.model_zoo
+
+    def zoo(system, settings):
+        full = real(system, settings)
+        dense = DenseRegressor(
+            (8,),
+            max_epochs=6,
+            random_state=settings.seed,
+            callbacks=[CtrlCAtEpoch(2)] if interrupt_dense else None,
+        )
+        out = {name: full[name] for name in ("physics (refit)", "linear")}
+        out["dense"] = dense
+        out["physics+dense"] = HybridBoostingRegressor(
+            [
+                ("physics", full["physics (refit)"]),
+                ("dense", DenseRegressor((8,), max_epochs=6, random_state=1)),
+            ],
+            n_steps=settings.n_steps,
+        )
+        return out
+
+    return zoo
+
+
+@pytest.fixture
+def tiny_zoo(monkeypatch):
+    """Replace the zoo with four quick models; ``tiny_zoo(True)`` interrupts."""
+
+    def use(interrupt_dense=False):
+        zoo = _tiny_zoo(interrupt_dense)
+        monkeypatch.setattr(experiments, "model_zoo", zoo)
+        monkeypatch.setattr(_runner, "model_zoo", zoo)
+
+    # The paper's claims compare models that the small zoo does not have.
+    monkeypatch.setattr(experiments, "check_claims", lambda result: [])
+    monkeypatch.setattr(_report, "check_claims", lambda result: [])
+
+    use()
+    return use
+
+
+@pytest.fixture
+def no_training(monkeypatch):
+    def fail(*args, **kwargs):  # pragma: no cover - must not be reached
+        raise AssertionError("training started")
+
+    monkeypatch.setattr(experiments, "run_experiment", fail)
+    monkeypatch.setattr(_runner, "_fit_one", fail)
+
+
+def _run(out, *extra):
+    argv = ["run", "pendulum", "--quick", "--out", str(out), "--no-progress"]
+    return main([*argv, "--n-jobs", "1", *extra])
+
+
+def _table(out):
+    """results.csv without the fit times (the one column that is a measurement)."""
+    with (Path(out) / "results.csv").open() as f:
+        return [
+            {k: v for k, v in row.items() if k != "fit_time_s"}
+            for row in csv.DictReader(f)
+        ]
+
+
+def _finished(out):
+    folder = Path(out) / "models" / "pendulum"
+    return sorted(json.loads(p.read_text())["model"] for p in folder.glob("*.json"))
+
+
+def _one_error_line(capsys, *words):
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith("skhybrid: error: ")
+    for word in words:
+        assert word in err, err
+    return err
+
+
+# -- the output location and the seed, checked before any training ---------------
+
+
+def test_out_that_is_a_file_is_refused_before_training(tmp_path, capsys, no_training):
+    target = tmp_path / "results.csv"
+    target.write_text("precious")
+    assert _run(target) == 2
+    _one_error_line(capsys, f"--out {target} is a file, not a folder")
+    assert target.read_text() == "precious"
+
+
+def test_out_under_a_file_is_refused_before_training(tmp_path, capsys, no_training):
+    (tmp_path / "file").write_text("x")
+    assert _run(tmp_path / "file" / "sub") == 2
+    _one_error_line(capsys, "cannot be created")
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0,
+    reason="root writes into read-only folders",
+)
+def test_unwritable_out_is_refused_before_training(tmp_path, capsys, no_training):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        assert _run(locked) == 2
+    finally:
+        locked.chmod(0o700)
+    _one_error_line(capsys, f"--out {locked} is not writable")
+
+
+def test_huge_seed_is_refused_before_training(capsys, no_training):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "pendulum", "--seed", str(2**32)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "2**32 - 1" in err
+
+
+# -- results land as each model finishes; Ctrl-C keeps them; resume --------------
+
+
+def test_ctrl_c_in_a_network_stops_keeps_finished_and_resumes_to_same_table(
+    tmp_path, capsys, tiny_zoo
+):
+    # skorch catches the KeyboardInterrupt of a Ctrl-C inside fit and returns the
+    # network as if trained: the run must still stop and not record that model.
+    out = tmp_path / "run"
+    tiny_zoo(interrupt_dense=True)
+    assert _run(out) == 130
+    err = capsys.readouterr().err
+    assert "interrupted: 2 of 4 models are finished and kept" in err
+    assert f"--out {out} --no-progress --n-jobs 1 --resume" in err
+    assert _finished(out) == ["linear", "physics (refit)"]  # not dense, nor later
+    assert not (out / "results.csv").exists()
+    assert not (out / ".lock").exists()
+    record = json.loads((out / "models" / "pendulum" / "linear.json").read_text())
+    assert {r["split"] for r in record["scores"]} == {"interpolation", "extrapolation"}
+    assert (out / "models" / "pendulum" / "linear.joblib").is_file()
+
+    tiny_zoo(interrupt_dense=False)
+    assert _run(out, "--resume") == 0
+    assert "resuming: 2 of 4 models already finished" in capsys.readouterr().out
+    assert _finished(out) == sorted(TINY)
+
+    assert _run(tmp_path / "uninterrupted") == 0
+    assert _table(out) == _table(tmp_path / "uninterrupted")
+
+
+def test_same_command_again_carries_on_an_unfinished_run(tmp_path, capsys, tiny_zoo):
+    out = tmp_path / "run"
+    tiny_zoo(interrupt_dense=True)
+    assert _run(out) == 130
+    tiny_zoo()
+    assert _run(out) == 0
+    assert "resuming: 2 of 4" in capsys.readouterr().out
+
+
+def test_stored_model_is_the_fitted_model(tmp_path, tiny_zoo):
+    import joblib
+    import numpy as np
+
+    out = tmp_path / "run"
+    assert _run(out) == 0
+    folder = out / "models" / "pendulum"
+    model = joblib.load(folder / "physics-refit.joblib")
+    with np.load(folder / "physics-refit.npz") as data:
+        stored = data["interpolation"]
+    X = (
+        experiments.SYSTEMS["pendulum"]
+        .make_splits(experiments.ExperimentSettings.quick(0))["interpolation"]
+        .X
+    )
+    np.testing.assert_array_equal(model.predict(X), stored)
+
+
+# -- a finished run is kept; other runs are refused --------------------------------
+
+
+def test_finished_run_is_not_overwritten_without_overwrite(
+    tmp_path, capsys, tiny_zoo, monkeypatch
+):
+    out = tmp_path / "run"
+    assert _run(out) == 0
+    before = (out / "results.csv").read_bytes()
+    table = _table(out)
+    capsys.readouterr()
+    for extra in ([], ["--seed", "1"]):
+        assert _run(out, *extra) == 2
+        _one_error_line(capsys, "already holds a finished run", "--overwrite")
+    assert (out / "results.csv").read_bytes() == before
+    # --resume writes the report again from the stored models, training nothing.
+    fit_one = _runner._fit_one
+    monkeypatch.setattr(_runner, "_fit_one", None)  # calling it would fail
+    assert _run(out, "--resume") == 0
+    monkeypatch.setattr(_runner, "_fit_one", fit_one)
+    assert "resuming: 4 of 4" in capsys.readouterr().out
+    assert _table(out) == table
+    assert _run(out, "--overwrite", "--seed", "1") == 0
+    assert {row["seed"] for row in _table(out)} == {"1"}
+
+
+def test_results_of_an_older_run_are_not_overwritten(tmp_path, capsys, no_training):
+    out = tmp_path / "old"
+    out.mkdir()
+    (out / "report.html").write_text("an old report")
+    assert _run(out) == 2
+    _one_error_line(capsys, "already holds results", "--overwrite")
+    assert (out / "report.html").read_text() == "an old report"
+
+
+def test_unfinished_run_of_other_settings_is_refused(tmp_path, capsys, tiny_zoo):
+    out = tmp_path / "run"
+    tiny_zoo(interrupt_dense=True)
+    assert _run(out) == 130
+    capsys.readouterr()
+    tiny_zoo()
+    assert _run(out, "--seed", "5") == 2
+    _one_error_line(capsys, "holds an unfinished run of other settings")
+    assert _finished(out) == ["linear", "physics (refit)"]
+
+
+def test_concurrent_run_is_refused(tmp_path, capsys, no_training):
+    # Another run holds the folder: a live process's pid in the lock.
+    out = tmp_path / "run"
+    out.mkdir()
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (out / ".lock").write_text(
+            json.dumps({"pid": other.pid, "host": os.uname().nodename, "started": "x"})
+        )
+        assert _run(out) == 2
+    finally:
+        other.kill()
+        other.wait()
+    _one_error_line(capsys, "in use by another skhybrid run", f"pid {other.pid}")
+    assert (out / ".lock").exists()  # still the other run's
+
+
+def test_stale_lock_is_taken_over(tmp_path, tiny_zoo):
+    out = tmp_path / "run"
+    out.mkdir()
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    (out / ".lock").write_text(
+        json.dumps({"pid": gone.pid, "host": os.uname().nodename, "started": "x"})
+    )
+    assert _run(out) == 0
+    assert not (out / ".lock").exists()
+
+
+def test_lock_is_exclusive(tmp_path):
+    first = FolderLock(tmp_path).acquire()
+    with pytest.raises(RunFolderError, match="in use by another skhybrid run"):
+        FolderLock(tmp_path).acquire()
+    first.release()
+    FolderLock(tmp_path).acquire().release()
+    assert not (tmp_path / ".lock").exists()
+
+
+def test_run_folder_refuses_a_file(tmp_path):
+    (tmp_path / "f").write_text("")
+    with pytest.raises(RunFolderError, match="is a file, not a folder"):
+        RunFolder(tmp_path / "f").prepare()
+
+
+# -- the real quick run, interrupted from outside and resumed ----------------------
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_jobs", ["1", "2"])
+def test_ctrl_c_on_quick_run_then_resume_gives_the_uninterrupted_table(
+    tmp_path, n_jobs
+):
+    import time
+
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    argv = [sys.executable, "-m", "skhybrid.cli", "run", "pendulum", "--quick"]
+    argv += ["--n-jobs", n_jobs, "--no-progress", "--out"]
+    out = tmp_path / "run"
+    proc = subprocess.Popen(
+        [*argv, str(out)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    models = out / "models" / "pendulum"
+    deadline = time.monotonic() + 300
+    while not (models.is_dir() and len(list(models.glob("*.json"))) >= 2):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    # A Ctrl-C in a terminal reaches the whole process group (joblib's workers too).
+    os.killpg(proc.pid, signal.SIGINT)
+    start = time.monotonic()
+    _, err = proc.communicate(timeout=60)
+    assert time.monotonic() - start < 10  # promptly
+    assert proc.returncode == 130, err
+    assert "--resume" in err
+    kept = len(list(models.glob("*.json")))
+    assert 2 <= kept < 12
+    resumed = subprocess.run(
+        [*argv, str(out), "--resume"], env=env, capture_output=True, text=True
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resuming: {kept} of 12" in resumed.stdout
+    whole = subprocess.run(
+        [*argv, str(tmp_path / "whole")], env=env, capture_output=True, text=True
+    )
+    assert whole.returncode == 0, whole.stderr
+    assert _table(out) == _table(tmp_path / "whole")

@@ -341,12 +341,20 @@ def test_ctrl_c_on_quick_run_then_resume_gives_the_uninterrupted_table(
     kept = len(list(models.glob("*.json")))
     assert 2 <= kept < 12
     resumed = subprocess.run(
-        [*argv, str(out), "--resume"], env=env, capture_output=True, text=True
+        [*argv, str(out), "--resume"],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert resumed.returncode == 0, resumed.stderr
     assert f"resuming: {kept} of 12" in resumed.stdout
     whole = subprocess.run(
-        [*argv, str(tmp_path / "whole")], env=env, capture_output=True, text=True
+        [*argv, str(tmp_path / "whole")],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert whole.returncode == 0, whole.stderr
     assert _table(out) == _table(tmp_path / "whole")

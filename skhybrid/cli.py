@@ -3,8 +3,10 @@
 import argparse
 import contextlib
 import importlib.util
+import logging
 import os
 import shlex
+import signal
 import sys
 import time
 
@@ -225,13 +227,20 @@ def _dask_backend(address, n_workers):
     cluster = None
     try:
         if address == "local":
-            # One thread per worker process: each fits one model at a time.
-            cluster = LocalCluster(
-                n_workers=n_workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",  # any free port: 8787 may be taken
-            )
+            # Worker processes started while SIGINT is ignored keep ignoring it: a
+            # Ctrl-C reaches this process alone, which stops and closes them.
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                # One thread per worker process: each fits one model at a time.
+                cluster = LocalCluster(
+                    n_workers=n_workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=":0",  # any free port: 8787 may be taken
+                    silence_logs=logging.ERROR,
+                )
+            finally:
+                signal.signal(signal.SIGINT, previous)
             client = Client(cluster)
         else:
             client = Client(address, timeout=DASK_CONNECT_TIMEOUT)

@@ -4,7 +4,11 @@ scikit-learn's :class:`~sklearn.exceptions.ConvergenceWarning` is used for optim
 that stop before converging; the classes here cover what scikit-learn has no name for.
 """
 
-__all__ = ["NonWhiteResidualWarning", "TrainingDivergedError"]
+__all__ = [
+    "NonWhiteResidualWarning",
+    "SimulationDivergedError",
+    "TrainingDivergedError",
+]
 
 
 class NonWhiteResidualWarning(UserWarning):
@@ -20,4 +24,13 @@ class TrainingDivergedError(FloatingPointError, ValueError):
 
     Subclasses :class:`ValueError` (bad settings, usually a learning rate that is too
     large) and :class:`FloatingPointError` (what happened numerically).
+    """
+
+
+class SimulationDivergedError(FloatingPointError, ValueError):
+    """A free-run simulation produced non-finite states.
+
+    The message names the first time step at which a state became NaN or
+    infinite. Subclasses :class:`ValueError` and :class:`FloatingPointError`, as
+    :class:`TrainingDivergedError` does.
     """

@@ -178,7 +178,9 @@ def _concat(parts, axis):
 
 def _check_count(value, name, minimum):
     if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {name}={value!r}.")
+        raise ValueError(
+            f"{name} must be an integer >= {minimum}; got {name}={value!r}."
+        )
     return int(value)
 
 
@@ -238,7 +240,8 @@ class WindowLayout:
         _check_count(self.n_states, "n_states", 1)
         _check_count(self.n_inputs, "n_inputs", 0)
         _check_n_steps(self.n_steps)
-        for attr, count in (("state_names", self.n_states), ("input_names", self.n_inputs)):
+        counts = (("state_names", self.n_states), ("input_names", self.n_inputs))
+        for attr, count in counts:
             names = getattr(self, attr)
             if names is None:
                 continue

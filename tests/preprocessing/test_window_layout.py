@@ -33,10 +33,9 @@ def test_shift_gives_the_next_row(n_inputs):
     next_input = inputs[4 : 4 + len(X)] if n_inputs else None
     shifted = layout.shift(X, y, next_input)
     np.testing.assert_array_equal(shifted[:-1], X[1:])
-    tX = torch.as_tensor(X, requires_grad=True)
-    t_shifted = layout.shift(
-        tX, torch.as_tensor(y), None if next_input is None else torch.as_tensor(next_input)
-    )
+    tX = torch.tensor(X, requires_grad=True)
+    t_input = None if next_input is None else torch.as_tensor(next_input)
+    t_shifted = layout.shift(tX, torch.as_tensor(y), t_input)
     np.testing.assert_array_equal(t_shifted.detach().numpy(), shifted)
     t_shifted.sum().backward()  # differentiable
 

@@ -441,6 +441,78 @@ class WindowLayout:
             parts.append(next_input)
         return _concat(parts, axis=1)
 
+    def continues(self, X, y, *, atol=0.0):
+        """Whether row ``i + 1`` continues row ``i`` in the same experiment.
+
+        Row ``i + 1`` continues row ``i`` when it is row ``i`` shifted one step
+        forward with the target ``y[i]`` as its newest state: its older steps
+        equal row ``i``'s newer steps, and its newest state equals ``y[i]``. Rows
+        built by :meth:`make_rows` from one episode continue each other; the last
+        row of an episode is not continued by the first of the next. This is what
+        lets a loss over simulated horizons run on rows: the rows themselves say
+        where the sequences are.
+
+        Parameters
+        ----------
+        X : array of shape (n_samples, n_features)
+            Rows in this layout, in time order.
+        y : array of shape (n_samples, n_states) or (n_samples,)
+            The targets of the rows.
+        atol : float, default=0.0
+            Absolute tolerance of the comparison (0: exact, as for rows cut
+            from the same sequence).
+
+        Returns
+        -------
+        continues : ndarray of bool of shape (n_samples - 1,)
+            ``continues[i]`` is True when row ``i + 1`` continues row ``i``.
+        """
+        X = np.asarray(self.check(X))
+        y = np.asarray(y).reshape(len(X), -1)
+        if len(X) < 2:
+            return np.zeros(0, dtype=bool)
+        older = np.abs(X[1:, : -self.step_width] - X[:-1, self.step_width :])
+        newest = np.abs(self.newest_states(X[1:]) - y[:-1])
+        return np.all(older <= atol, axis=1) & np.all(newest <= atol, axis=1)
+
+    def horizon_starts(self, X, y, horizon, *, atol=0.0):
+        """Rows from which ``horizon`` contiguous rows follow in one experiment.
+
+        Parameters
+        ----------
+        X : array of shape (n_samples, n_features)
+            Rows in this layout, in time order.
+        y : array of shape (n_samples, n_states) or (n_samples,)
+            The targets of the rows.
+        horizon : int
+            Rows per sub-sequence (1: every row).
+        atol : float, default=0.0
+            Passed to :meth:`continues`.
+
+        Returns
+        -------
+        starts : ndarray of int
+            Indices ``i`` such that rows ``i .. i + horizon - 1`` each continue
+            the one before; simulating ``horizon`` steps from row ``i`` then
+            meets the targets ``y[i : i + horizon]``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from skhybrid.preprocessing import WindowLayout, make_windows
+        >>> X, y = make_windows([np.arange(5.0), np.arange(4.0)], n_steps=1)
+        >>> WindowLayout(1).horizon_starts(X, y, horizon=3)
+        array([0, 1, 4])
+        """
+        horizon = _check_count(horizon, "horizon", 1)
+        n = len(X)
+        if horizon == 1:
+            return np.arange(n)
+        ok = self.continues(X, y, atol=atol).astype(int)
+        # A start i needs ok[i .. i + horizon - 2] all true: a window sum.
+        run = np.convolve(ok, np.ones(horizon - 1, dtype=int), mode="valid")
+        return np.flatnonzero(run == horizon - 1)
+
     def make_rows(self, states, inputs=None, *, return_groups=False):
         """Rows and next-state targets from sequences; see :func:`make_windows`.
 

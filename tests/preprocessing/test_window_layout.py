@@ -58,3 +58,21 @@ def test_feature_names_and_bad_values():
         WindowLayout(2, state_names=["a"])
     with pytest.raises(ValueError, match="must have 4 columns"):
         layout.split(np.zeros((3, 5)))
+
+
+def test_horizon_starts_stay_inside_episodes():
+    rng = np.random.default_rng(2)
+    episodes = [rng.normal(size=(12, 2)), rng.normal(size=(9, 2))]
+    inputs = [rng.normal(size=(12, 1)), rng.normal(size=(9, 1))]
+    layout = WindowLayout(2, 1, 3)
+    X, y, groups = layout.make_rows(episodes, inputs, return_groups=True)
+    cont = layout.continues(X, y)
+    np.testing.assert_array_equal(cont, groups[1:] == groups[:-1])
+    starts = layout.horizon_starts(X, y, 4)
+    assert len(starts) == (9 - 3) + (6 - 3)
+    for i in starts:  # every start's horizon lies in one episode
+        assert len(set(groups[i : i + 4])) == 1
+    np.testing.assert_array_equal(layout.horizon_starts(X, y, 1), np.arange(len(X)))
+    # Shuffled rows hold no sequence longer than one step.
+    perm = rng.permutation(len(X))
+    assert len(layout.horizon_starts(X[perm], y[perm], 2)) <= 1

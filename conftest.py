@@ -11,3 +11,7 @@ try:
     torch.set_num_threads(1)
 except ImportError:  # pragma: no cover
     pass
+
+# The deprecated alias module warns on import; doctest collection must not import it
+# (tests/experiments/test_cli.py checks the alias on purpose).
+collect_ignore = ["skhybrid/benchmarks.py"]

@@ -11,6 +11,7 @@ from sklearn.exceptions import (
 __all__ = [
     "InconsistentVersionWarning",
     "NonWhiteResidualWarning",
+    "SimulationDivergedError",
     "TrainingDivergedError",
 ]
 
@@ -76,4 +77,13 @@ class TrainingDivergedError(FloatingPointError, ValueError):
 
     Subclasses :class:`ValueError` (bad settings, usually a learning rate that is too
     large) and :class:`FloatingPointError` (what happened numerically).
+    """
+
+
+class SimulationDivergedError(FloatingPointError, ValueError):
+    """A free-run simulation produced non-finite states.
+
+    The message names the first time step at which a state became NaN or
+    infinite. Subclasses :class:`ValueError` and :class:`FloatingPointError`, as
+    :class:`TrainingDivergedError` does.
     """

@@ -9,11 +9,12 @@ Because a row carries its own history, predictions never depend on row order:
 shuffled cross-validation, joblib and scikit-learn's estimator checks all work.
 """
 
+from dataclasses import dataclass
 from numbers import Integral
 
 import numpy as np
 
-__all__ = ["make_windows", "newest_step", "split_steps", "step_width"]
+__all__ = ["WindowLayout", "make_windows", "newest_step", "split_steps", "step_width"]
 
 
 def _check_n_steps(n_steps):
@@ -164,3 +165,382 @@ def make_windows(states, inputs=None, *, n_steps=1, return_groups=False):
     if return_groups:
         return X, y, np.concatenate(g_parts)
     return X, y
+
+
+def _concat(parts, axis):
+    """Concatenate NumPy arrays or torch tensors (whichever ``parts`` holds)."""
+    if type(parts[0]).__module__.startswith("torch"):
+        import torch
+
+        return torch.cat(parts, dim=axis)
+    return np.concatenate(parts, axis=axis)
+
+
+def _check_count(value, name, minimum):
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
+        raise ValueError(
+            f"{name} must be an integer >= {minimum}; got {name}={value!r}."
+        )
+    return int(value)
+
+
+@dataclass(frozen=True)
+class WindowLayout:
+    """How a row of ``X`` is built from sequences: the window convention, explicit.
+
+    A row holds ``n_steps`` consecutive time steps, oldest first; each step is laid
+    out as ``[state_1..state_s, input_1..input_m]`` and the target is the state at
+    the step after the window. "State" means whatever the model predicts and
+    feeds back: the full state of a simulator, or only the measured outputs of a
+    real system, in which case the window of past outputs and inputs is the NARX
+    form. Both are the same layout.
+
+    Every component reads this object instead of re-deriving widths: building
+    rows (:meth:`make_rows`), splitting them (:meth:`split`), shifting a window
+    one step forward in free-run simulation (:meth:`shift`, NumPy or torch), and
+    naming the features (:meth:`feature_names`). Estimators never store it as a
+    parameter: they derive it from the data (:meth:`from_shapes`), so cloning is
+    unaffected.
+
+    Parameters
+    ----------
+    n_states : int
+        Columns of the state (or measured output) in each step; also the width of
+        the target.
+    n_inputs : int, default=0
+        Columns of the input in each step; 0 for an autonomous system.
+    n_steps : int, default=1
+        Time steps per row.
+    state_names : sequence of str or None, default=None
+        Names of the state columns; ``x0, x1, ...`` when None.
+    input_names : sequence of str or None, default=None
+        Names of the input columns; ``u0, u1, ...`` when None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.preprocessing import WindowLayout
+    >>> layout = WindowLayout(n_states=1, n_inputs=1, n_steps=2)
+    >>> layout.feature_names()
+    ['x0[t-1]', 'u0[t-1]', 'x0[t]', 'u0[t]']
+    >>> X, y = layout.make_rows(np.arange(4.0), 10 + np.arange(4.0))
+    >>> X[0], y[0]
+    (array([ 0., 10.,  1., 11.]), array([2.]))
+    >>> layout.shift(X[:1], np.array([[2.0]]), np.array([[12.0]]))
+    array([[ 1., 11.,  2., 12.]])
+    """
+
+    n_states: int
+    n_inputs: int = 0
+    n_steps: int = 1
+    state_names: tuple = None
+    input_names: tuple = None
+
+    def __post_init__(self):
+        _check_count(self.n_states, "n_states", 1)
+        _check_count(self.n_inputs, "n_inputs", 0)
+        _check_n_steps(self.n_steps)
+        counts = (("state_names", self.n_states), ("input_names", self.n_inputs))
+        for attr, count in counts:
+            names = getattr(self, attr)
+            if names is None:
+                continue
+            names = tuple(str(n) for n in names)
+            if len(names) != count:
+                raise ValueError(
+                    f"{attr} must hold {count} names; got {attr}={names!r}."
+                )
+            object.__setattr__(self, attr, names)
+
+    @classmethod
+    def from_shapes(cls, n_features, n_states, *, n_steps=None, n_inputs=None, **names):
+        """The layout of rows with ``n_features`` columns and ``n_states`` targets.
+
+        Give ``n_steps`` or ``n_inputs``; the other follows from
+        ``n_features = n_steps * (n_states + n_inputs)``.
+
+        Parameters
+        ----------
+        n_features : int
+            Columns of a row.
+        n_states : int
+            Columns of the target.
+        n_steps : int or None, default=None
+            Time steps per row.
+        n_inputs : int or None, default=None
+            Input columns per step.
+        **names : dict
+            ``state_names`` and ``input_names``, passed on.
+
+        Returns
+        -------
+        layout : WindowLayout
+            The layout; a ValueError names the mismatch when none fits.
+        """
+        if n_steps is None and n_inputs is None:
+            raise ValueError("give n_steps or n_inputs to derive a window layout.")
+        if n_steps is not None:
+            width = step_width(n_features, n_steps)
+            if width < n_states:
+                raise ValueError(
+                    f"a row of {n_features} columns in n_steps={n_steps} steps has "
+                    f"{width} columns per step, fewer than the {n_states} states."
+                )
+            layout = cls(n_states, width - n_states, n_steps, **names)
+        else:
+            width = n_states + n_inputs
+            if n_features % width:
+                raise ValueError(
+                    f"a row of {n_features} columns is not a whole number of steps "
+                    f"of {n_states} states and {n_inputs} inputs ({width} columns)."
+                )
+            layout = cls(n_states, n_inputs, n_features // width, **names)
+        if n_inputs is not None and layout.n_inputs != n_inputs:
+            raise ValueError(
+                f"rows of {n_features} columns with n_steps={n_steps} and "
+                f"{n_states} states hold {layout.n_inputs} inputs per step, not "
+                f"n_inputs={n_inputs}."
+            )
+        return layout
+
+    @property
+    def step_width(self):
+        """Columns of one time step: ``n_states + n_inputs``."""
+        return self.n_states + self.n_inputs
+
+    @property
+    def n_features(self):
+        """Columns of a row: ``n_steps * step_width``."""
+        return self.n_steps * self.step_width
+
+    def _names(self):
+        states = self.state_names or tuple(f"x{i}" for i in range(self.n_states))
+        inputs = self.input_names or tuple(f"u{i}" for i in range(self.n_inputs))
+        return states, inputs
+
+    def feature_names(self):
+        """Names of a row's columns, ``name[t-k]`` for the step k before the newest.
+
+        Returns
+        -------
+        names : list of str
+            One name per column of a row.
+        """
+        states, inputs = self._names()
+        out = []
+        for k in range(self.n_steps - 1, -1, -1):
+            lag = "[t]" if k == 0 else f"[t-{k}]"
+            out.extend(f"{n}{lag}" for n in (*states, *inputs))
+        return out
+
+    def check(self, X, name="X"):
+        """Raise a ValueError when rows of ``X`` do not have this layout's width.
+
+        Parameters
+        ----------
+        X : array-like or tensor of shape (n_samples, n_features)
+            Rows to check.
+        name : str, default="X"
+            How to name ``X`` in the error.
+
+        Returns
+        -------
+        X : array-like or tensor
+            ``X`` itself.
+        """
+        if X.ndim != 2 or X.shape[1] != self.n_features:
+            raise ValueError(
+                f"{name} must have {self.n_features} columns ({self.n_steps} steps of "
+                f"{self.n_states} states and {self.n_inputs} inputs); got shape "
+                f"{tuple(X.shape)}."
+            )
+        return X
+
+    def split(self, X):
+        """Split rows into states and inputs, each ``(n_samples, n_steps, width)``.
+
+        Works on NumPy arrays and torch tensors.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (n_samples, n_features)
+            Rows in this layout.
+
+        Returns
+        -------
+        states : array or tensor of shape (n_samples, n_steps, n_states)
+            The state of each step, oldest first.
+        inputs : array or tensor of shape (n_samples, n_steps, n_inputs)
+            The input of each step, oldest first.
+        """
+        steps = self.check(X).reshape(X.shape[0], self.n_steps, self.step_width)
+        return steps[:, :, : self.n_states], steps[:, :, self.n_states :]
+
+    def join(self, states, inputs=None):
+        """Rows from states ``(n, n_steps, n_states)`` and inputs; inverse of split.
+
+        Parameters
+        ----------
+        states : array or tensor of shape (n_samples, n_steps, n_states)
+            The state of each step, oldest first.
+        inputs : array or tensor of shape (n_samples, n_steps, n_inputs) or None
+            The input of each step; None when ``n_inputs == 0``.
+
+        Returns
+        -------
+        X : array or tensor of shape (n_samples, n_features)
+            Rows in this layout.
+        """
+        parts = [states] if inputs is None or self.n_inputs == 0 else [states, inputs]
+        steps = _concat(parts, axis=2) if len(parts) > 1 else states
+        return steps.reshape(steps.shape[0], self.n_features)
+
+    def newest_states(self, X):
+        """The state of the newest step of each row, ``(n_samples, n_states)``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (n_samples, n_features)
+            Rows in this layout.
+
+        Returns
+        -------
+        states : array or tensor of shape (n_samples, n_states)
+            The newest step's state.
+        """
+        start = self.n_features - self.step_width
+        return self.check(X)[:, start : start + self.n_states]
+
+    def shift(self, X, next_state, next_input=None):
+        """Drop each row's oldest step and append ``[next_state, next_input]``.
+
+        The step of free-run simulation: the window moves one step forward with
+        the predicted state and the next measured input. Works on NumPy arrays and
+        torch tensors (differentiably).
+
+        Parameters
+        ----------
+        X : array or tensor of shape (n_samples, n_features)
+            Rows in this layout.
+        next_state : array or tensor of shape (n_samples, n_states)
+            The state of the new newest step.
+        next_input : array or tensor of shape (n_samples, n_inputs) or None
+            The input of the new newest step; None when ``n_inputs == 0``.
+
+        Returns
+        -------
+        X_next : array or tensor of shape (n_samples, n_features)
+            The shifted rows.
+        """
+        parts = [self.check(X)[:, self.step_width :], next_state]
+        if self.n_inputs:
+            if next_input is None:
+                raise ValueError(
+                    f"next_input is needed: the layout has {self.n_inputs} inputs."
+                )
+            parts.append(next_input)
+        return _concat(parts, axis=1)
+
+    def continues(self, X, y, *, atol=0.0):
+        """Whether row ``i + 1`` continues row ``i`` in the same experiment.
+
+        Row ``i + 1`` continues row ``i`` when it is row ``i`` shifted one step
+        forward with the target ``y[i]`` as its newest state: its older steps
+        equal row ``i``'s newer steps, and its newest state equals ``y[i]``. Rows
+        built by :meth:`make_rows` from one episode continue each other; the last
+        row of an episode is not continued by the first of the next. This is what
+        lets a loss over simulated horizons run on rows: the rows themselves say
+        where the sequences are.
+
+        Parameters
+        ----------
+        X : array of shape (n_samples, n_features)
+            Rows in this layout, in time order.
+        y : array of shape (n_samples, n_states) or (n_samples,)
+            The targets of the rows.
+        atol : float, default=0.0
+            Absolute tolerance of the comparison (0: exact, as for rows cut
+            from the same sequence).
+
+        Returns
+        -------
+        continues : ndarray of bool of shape (n_samples - 1,)
+            ``continues[i]`` is True when row ``i + 1`` continues row ``i``.
+        """
+        X = np.asarray(self.check(X))
+        y = np.asarray(y).reshape(len(X), -1)
+        if len(X) < 2:
+            return np.zeros(0, dtype=bool)
+        older = np.abs(X[1:, : -self.step_width] - X[:-1, self.step_width :])
+        newest = np.abs(self.newest_states(X[1:]) - y[:-1])
+        return np.all(older <= atol, axis=1) & np.all(newest <= atol, axis=1)
+
+    def horizon_starts(self, X, y, horizon, *, atol=0.0):
+        """Rows from which ``horizon`` contiguous rows follow in one experiment.
+
+        Parameters
+        ----------
+        X : array of shape (n_samples, n_features)
+            Rows in this layout, in time order.
+        y : array of shape (n_samples, n_states) or (n_samples,)
+            The targets of the rows.
+        horizon : int
+            Rows per sub-sequence (1: every row).
+        atol : float, default=0.0
+            Passed to :meth:`continues`.
+
+        Returns
+        -------
+        starts : ndarray of int
+            Indices ``i`` such that rows ``i .. i + horizon - 1`` each continue
+            the one before; simulating ``horizon`` steps from row ``i`` then
+            meets the targets ``y[i : i + horizon]``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from skhybrid.preprocessing import WindowLayout, make_windows
+        >>> X, y = make_windows([np.arange(5.0), np.arange(4.0)], n_steps=1)
+        >>> WindowLayout(1).horizon_starts(X, y, horizon=3)
+        array([0, 1, 4])
+        """
+        horizon = _check_count(horizon, "horizon", 1)
+        n = len(X)
+        if horizon == 1:
+            return np.arange(n)
+        ok = self.continues(X, y, atol=atol).astype(int)
+        # A start i needs ok[i .. i + horizon - 2] all true: a window sum.
+        run = np.convolve(ok, np.ones(horizon - 1, dtype=int), mode="valid")
+        return np.flatnonzero(run == horizon - 1)
+
+    def make_rows(self, states, inputs=None, *, return_groups=False):
+        """Rows and next-state targets from sequences; see :func:`make_windows`.
+
+        Parameters
+        ----------
+        states : array-like of shape (n_times, n_states) or list of such arrays
+            States in time order, one array per episode.
+        inputs : array-like of shape (n_times, n_inputs), list of such arrays or None
+            Inputs aligned with ``states``.
+        return_groups : bool, default=False
+            Also return the episode index of each row.
+
+        Returns
+        -------
+        X : ndarray of shape (n_windows, n_features)
+            Rows in this layout.
+        y : ndarray of shape (n_windows, n_states)
+            The state after each row's newest step.
+        groups : ndarray of shape (n_windows,)
+            Episode index of each row; only with ``return_groups=True``.
+        """
+        out = make_windows(
+            states, inputs, n_steps=self.n_steps, return_groups=return_groups
+        )
+        if out[0].shape[1] != self.n_features or out[1].shape[1] != self.n_states:
+            raise ValueError(
+                f"the sequences have {out[1].shape[1]} state and "
+                f"{out[0].shape[1] // self.n_steps - out[1].shape[1]} input columns; "
+                f"the layout expects {self.n_states} and {self.n_inputs}."
+            )
+        return out

@@ -216,3 +216,15 @@ def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path
     )
     assert err == [expected]
     assert not (tmp_path / "r").exists()
+
+
+def test_old_module_name_warns_and_still_works():
+    import importlib
+    import sys
+
+    sys.modules.pop("skhybrid.benchmarks", None)
+    with pytest.warns(FutureWarning, match="renamed skhybrid.experiments"):
+        old = importlib.import_module("skhybrid.benchmarks")
+    import skhybrid.experiments as new
+
+    assert old.run_experiment is new.run_experiment

@@ -106,6 +106,7 @@ def _table(out):
         ]
 
 
+@pytest.mark.slow  # about 15 s: two clusters' worth of process starts
 def test_dask_local_run_gives_the_local_table(tmp_path, monkeypatch):
     pytest.importorskip("distributed", reason=NO_DASK)
     from skhybrid import experiments

@@ -293,6 +293,10 @@ def main(argv=None):
     except RunFolderError as exc:
         _error(str(exc))
         return 2
+    except KeyboardInterrupt:
+        folder.lock.release()
+        sys.stderr.write("\nskhybrid: interrupted before training\n")
+        return 130
     try:
         return _run(args, argv, names, command, folder)
     except RunFolderError as exc:
@@ -312,20 +316,20 @@ def _run(args, argv, names, command, folder):
     )
 
     identity = _identity(names, args.quick, args.seed)
-    n_finished = folder.start(
-        identity, command, overwrite=args.overwrite, resume=args.resume
-    )
     settings = (ExperimentSettings.quick if args.quick else ExperimentSettings.full)(
         args.seed
     )
     n_models = sum(len(model_zoo(SYSTEMS[name], settings)) for name in names)
-    if n_finished:
-        sys.stdout.write(
-            f"resuming: {n_finished} of {n_models} models already finished in "
-            f"{folder.path}\n"
-        )
     start = time.perf_counter()
     try:
+        n_finished = folder.start(
+            identity, command, overwrite=args.overwrite, resume=args.resume
+        )
+        if n_finished:
+            sys.stdout.write(
+                f"resuming: {n_finished} of {n_models} models already finished in "
+                f"{folder.path}\n"
+            )
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
             if args.dask is not None:

@@ -361,7 +361,10 @@ class DomainModel(VersionedPickleMixin, RegressorMixin, BaseEstimator):
         base = raw(theta)
         if self.jac == "autograd":
             return self._autograd_jacobian(X, y, spec, objective_fn=False)(theta), base
-        step = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(theta))
+        # Steps on each parameter's own scale, not on 1 (which is huge for a
+        # parameter of order 1e-7); near zero, on a fraction of its start's.
+        size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+        step = np.finfo(float).eps ** (1 / 3) * size
         J = np.zeros((base.size, theta.size))
         for j in range(theta.size):
             # Central differences, stepping only inside the bounds.

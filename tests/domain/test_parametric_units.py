@@ -147,3 +147,22 @@ def test_wrong_shape_names_function_shape_and_expected_shape(func, got, n_output
     assert func.__name__ in message
     assert got in message
     assert re.search(rf"expected shape {re.escape(expected)}", message), message
+
+
+def decay(X, *, k, xp=np):
+    return xp.exp(-k * X[:, 0])
+
+
+@pytest.mark.parametrize("scale", SCALES)
+def test_standard_errors_of_a_nonlinear_parameter_do_not_depend_on_units(scale, rng):
+    # X in seconds or in microseconds: k in 1/s or 1/us; k * X is the same. The
+    # finite differences of the standard errors step on k's own scale (once they
+    # stepped by 6e-6 on a k of 3e-7 and gave a standard error of 1e-14).
+    x = np.linspace(0, 5, 300)[:, None]
+    y = np.exp(-0.3 * x[:, 0]) + 0.01 * rng.standard_normal(300)
+    reference = _fit_quietly(ParametricModel(decay, {"k": 0.1}), x, y)
+    model = _fit_quietly(ParametricModel(decay, {"k": 0.1 / scale}), x * scale, y)
+    assert model.params_["k"] * scale == pytest.approx(reference.params_["k"], rel=1e-6)
+    assert model.params_std_["k"] * scale == pytest.approx(
+        reference.params_std_["k"], rel=1e-4
+    )

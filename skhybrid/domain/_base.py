@@ -267,10 +267,11 @@ class DomainModel(VersionedPickleMixin, RegressorMixin, BaseEstimator):
         # least_squares stops when the gradient J^T f falls below an absolute
         # gtol, and steps its finite differences by absolute amounts: both depend
         # on the units of the data and of the parameters. It therefore works on
-        # dimensionless residuals (divided by the target's scale) and parameters
-        # (divided by their starting values), so a fit gives the same answer
-        # whatever the units.
-        r_scale = self._residual_scale(y)
+        # dimensionless residuals (divided by their size at the start) and
+        # parameters (divided by their starting values), so a fit gives the same
+        # answer whatever the units.
+        f0 = np.asarray(fun(spec.x0), dtype=float)
+        r_scale = self._residual_scale(f0, y)
         p_scale = spec.scale
 
         def scaled_fun(z):
@@ -336,13 +337,21 @@ class DomainModel(VersionedPickleMixin, RegressorMixin, BaseEstimator):
             )
         return result.x, result
 
-    def _residual_scale(self, y):
-        """Scale of the objective's residual vector: the target's spread.
+    def _residual_scale(self, f0, y):
+        """Size of the objective's residual vector ``f0`` at the starting values.
 
-        The Ljung-Box objective alone is already dimensionless (autocorrelations).
+        Not the target's spread: a one-step model of a slow state (a position
+        sampled at 1 kHz) leaves residuals a millionth of the target's size, and
+        the optimiser must see them at order 1. Falls back to the target's spread
+        where the start fits perfectly.
         """
-        if self.objective == "ljung_box":
-            return 1.0
+        candidates = [np.linalg.norm(f0)]
+        if self.objective != "ljung_box":  # autocorrelations have no units
+            candidates.append(np.sqrt(np.mean(np.var(y, axis=0))))
+        for scale in candidates:
+            if np.isfinite(scale) and scale > 0:
+                return float(scale)
+        return 1.0
         for scale in (np.sqrt(np.mean(np.var(y, axis=0))), np.sqrt(np.mean(y**2))):
             if np.isfinite(scale) and scale > 0:
                 return float(scale)

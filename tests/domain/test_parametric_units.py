@@ -166,3 +166,30 @@ def test_standard_errors_of_a_nonlinear_parameter_do_not_depend_on_units(scale, 
     assert model.params_std_["k"] * scale == pytest.approx(
         reference.params_std_["k"], rel=1e-4
     )
+
+
+def emps_axis(X, *, M, Fv, Fc, offset, xp=np):
+    """EMPS one step ahead: M a = tau - Fv v - Fc sign(v) - offset, at dt = 1 ms."""
+    dt = 1e-3
+    q_old, q_new, tau = X[:, 0], X[:, 2], X[:, 3]
+    v = (q_new - q_old) / dt
+    force = tau - Fv * v - Fc * xp.tanh(v / 1e-3) - offset
+    return 2 * q_new - q_old + dt**2 / M * force
+
+
+def test_measured_emps_in_si_units_is_fitted(shared_data_dir):
+    # Positions in metres move by micrometres per step: the fit once stopped at its
+    # starting values after one evaluation, silently.
+    from skhybrid.datasets import load_emps
+
+    data = load_emps(shared_data_dir / "emps")
+    train = data.splits["train"]  # the estimation record only
+    q = np.ravel(train.y)
+    tau = np.ravel(train.u) * data.controller["gtau"]  # motor force in N
+    X = np.column_stack([q[:-2], tau[:-2], q[1:-1], tau[1:-1]])
+    start = {"M": 50.0, "Fv": 100.0, "Fc": 10.0, "offset": 0.0}
+    model = _fit_quietly(ParametricModel(emps_axis, start, n_steps=2), X, q[2:])
+    # The benchmark's IDIM-LS reference estimates (data/README.md): within 3 %.
+    assert model.params_["M"] == pytest.approx(95.1089, rel=0.03)
+    assert model.params_["Fv"] == pytest.approx(203.5034, rel=0.03)
+    assert model.params_["Fc"] == pytest.approx(20.3935, rel=0.03)

@@ -71,6 +71,12 @@ def _seed(text):
     return value
 
 
+def _folder(text):
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder, got an empty path")
+    return text
+
+
 def _build_parser():
     from skhybrid.experiments import SYSTEMS
 
@@ -103,6 +109,7 @@ def _build_parser():
     )
     run.add_argument(
         "--out",
+        type=_folder,
         default="skhybrid-results",
         metavar="DIR",
         help="output folder (default: skhybrid-results)",
@@ -334,6 +341,7 @@ def _run(args, argv, names, command, folder):
             n_jobs = args.n_jobs
             if args.dask is not None:
                 n_workers = args.n_jobs if args.n_jobs > 0 else (os.cpu_count() or 1)
+                n_workers = min(n_workers, n_models)  # no idle worker processes
                 try:
                     client = stack.enter_context(_dask_backend(args.dask, n_workers))
                 except _DaskError as exc:

@@ -59,6 +59,7 @@ def test_help_explains_run(capsys):
             f"between 0 and 4294967295 (2**32 - 1), got '{2**32}'",
         ),
         (["run", "pendulum", "--resume", "--overwrite"], "not allowed with"),
+        (["run", "pendulum", "--out", ""], "expected a folder, got an empty path"),
         (["run", "pendulum", "--quik"], "unrecognized arguments: --quik"),
     ],
 )

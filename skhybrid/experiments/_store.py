@@ -208,8 +208,10 @@ class RunFolder:
             return {"status": "unreadable"}
 
     def has_foreign_results(self):
-        """Whether the folder holds a report that no ``run.json`` describes."""
-        return any((self.path / name).exists() for name in REPORT_FILES)
+        """Whether the folder holds a report or models no ``run.json`` describes."""
+        return self._any_finished() or any(
+            (self.path / name).exists() for name in REPORT_FILES
+        )
 
     def start(self, identity, command, *, overwrite=False, resume=False):
         """Decide what happens to what the folder holds, and record the run.
@@ -237,11 +239,20 @@ class RunFolder:
             manifest = None
         elif manifest is None and self.has_foreign_results():
             raise RunFolderError(
-                f"--out {self.path} already holds results (report.html or "
-                "results.csv) that this run would overwrite; pass --overwrite to "
-                "replace them, or choose another --out"
+                f"--out {self.path} already holds results (a report or models) "
+                "that no run.json describes and this run would overwrite; pass "
+                "--overwrite to replace them, or choose another --out"
             )
-        elif manifest is not None and not self._any_finished(manifest):
+        elif manifest is not None and manifest.get("status") == "unreadable":
+            raise RunFolderError(
+                f"--out {self.path} holds a run whose run.json cannot be read; pass "
+                "--overwrite to replace it, or choose another --out"
+            )
+        elif (
+            manifest is not None
+            and manifest.get("status") != "complete"
+            and not self._any_finished()
+        ):
             # A run that finished nothing: nothing to lose, start afresh.
             self.clear()
             manifest = None
@@ -273,9 +284,8 @@ class RunFolder:
         )
         return n_finished
 
-    def _any_finished(self, manifest):
-        systems = (manifest.get("identity") or {}).get("systems") or []
-        return any(self.finished(system) for system in systems)
+    def _any_finished(self):
+        return any((self.path / "models").glob("*/*.json"))
 
     def write_manifest(self, manifest):
         text = json.dumps(manifest, indent=1)

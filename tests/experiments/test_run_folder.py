@@ -358,3 +358,17 @@ def test_ctrl_c_on_quick_run_then_resume_gives_the_uninterrupted_table(
     )
     assert whole.returncode == 0, whole.stderr
     assert _table(out) == _table(tmp_path / "whole")
+
+
+def test_damaged_run_record_is_refused_not_cleared(tmp_path, capsys, tiny_zoo):
+    out = tmp_path / "run"
+    tiny_zoo(interrupt_dense=True)
+    assert _run(out) == 130
+    capsys.readouterr()
+    (out / "run.json").write_text("{ not json")
+    assert _run(out) == 2
+    _one_error_line(capsys, "run.json cannot be read", "--overwrite")
+    (out / "run.json").unlink()
+    assert _run(out) == 2
+    _one_error_line(capsys, "that no run.json describes")
+    assert _finished(out) == ["linear", "physics (refit)"]

@@ -122,7 +122,11 @@ def _build_parser():
         help="models fitted in parallel; -1 uses every core (default: 2)",
     )
     run.add_argument(
-        "--seed", type=_seed, default=0, metavar="S", help="seed of data and models"
+        "--seed",
+        type=_seed,
+        default=0,
+        metavar="S",
+        help="seed of data and models, 0 to 2**32 - 1 (default: 0)",
     )
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     again = run.add_mutually_exclusive_group()

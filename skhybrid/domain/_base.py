@@ -398,8 +398,10 @@ class DomainModel(VersionedPickleMixin, RegressorMixin, BaseEstimator):
         else:
             J, r = self._raw_jacobian(X, y, spec, theta)
             dof = r.size - spec.n_free
-            s2 = float(r @ r) / dof if dof > 0 else np.inf
-            cov = np.linalg.pinv(J.T @ J) * s2
+            if dof > 0:
+                cov = np.linalg.pinv(J.T @ J) * (float(r @ r) / dof)
+            else:  # as many parameters as residuals: no estimate of the noise
+                cov = np.full((spec.n_free, spec.n_free), np.inf)
         std_free = np.sqrt(np.clip(np.diag(cov), 0, None))
         return spec.to_dict(std_free, fixed_value=0.0), cov
 

@@ -372,3 +372,30 @@ def test_damaged_run_record_is_refused_not_cleared(tmp_path, capsys, tiny_zoo):
     assert _run(out) == 2
     _one_error_line(capsys, "that no run.json describes")
     assert _finished(out) == ["linear", "physics (refit)"]
+
+
+def test_second_run_into_a_busy_folder_is_refused(tmp_path, capsys, no_training):
+    import time
+
+    out = tmp_path / "run"
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    argv = ["run", "pendulum", "--quick", "--no-progress", "--n-jobs", "1"]
+    first = subprocess.Popen(
+        [sys.executable, "-m", "skhybrid.cli", *argv, "--out", str(out)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (out / ".lock").exists():
+            assert first.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        assert _run(out, "--seed", "1") == 2
+        _one_error_line(capsys, "in use by another skhybrid run", f"pid {first.pid}")
+    finally:
+        first.send_signal(signal.SIGINT)
+        _, err = first.communicate(timeout=60)
+    assert first.returncode == 130, err
+    assert not (out / ".lock").exists()

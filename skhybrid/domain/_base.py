@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.losses import OBJECTIVES, objective_residuals
 from skhybrid.preprocessing import step_width
+from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._array_api import get_namespace
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -23,7 +24,7 @@ from skhybrid.utils._sklearn_compat import (
 __all__ = ["DomainModel"]
 
 
-class DomainModel(VersionedPickleMixin, RegressorMixin, BaseEstimator):
+class DomainModel(SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator):
     """Base class of domain (physics) models fitted with ``least_squares``.
 
     A subclass declares its parameters and writes its equations once against an

@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.exceptions import NonWhiteResidualWarning
 from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
 from skhybrid.preprocessing import split_steps, step_width
+from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -55,7 +56,9 @@ class StageWhiteness:
     pvalue: np.ndarray
 
 
-class HybridBoostingRegressor(VersionedPickleMixin, RegressorMixin, _BaseComposition):
+class HybridBoostingRegressor(
+    SimulatorMixin, VersionedPickleMixin, RegressorMixin, _BaseComposition
+):
     """Sequential hybrid model: each stage is fitted to what the earlier stages left.
 
     The paper's boosting composition ``Y = f(X; theta) + NN(X; W) + N(phi)``: a

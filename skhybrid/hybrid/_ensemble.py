@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.domain._base import DomainModel, _ParameterSpec
 from skhybrid.exceptions import TrainingDivergedError
 from skhybrid.losses import OBJECTIVES, needs_time_order, objective_value
+from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
@@ -24,7 +25,9 @@ from skhybrid.utils._sklearn_compat import (
 __all__ = ["HybridEnsembleRegressor"]
 
 
-class HybridEnsembleRegressor(VersionedPickleMixin, RegressorMixin, BaseEstimator):
+class HybridEnsembleRegressor(
+    SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator
+):
     """Parallel hybrid model: physics parameters and network weights trained jointly.
 
     The paper's ensemble composition: the prediction is

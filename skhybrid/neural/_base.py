@@ -18,6 +18,7 @@ from torch.optim.lr_scheduler import ReduceLROnPlateau
 from skhybrid.losses import OBJECTIVES, needs_time_order
 from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
 from skhybrid.neural._modules import ObjectiveLoss
+from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -43,7 +44,9 @@ def _progress_bar():
     return ProgressBar()
 
 
-class BaseNeuralRegressor(VersionedPickleMixin, RegressorMixin, BaseEstimator):
+class BaseNeuralRegressor(
+    SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator
+):
     """Base class of the skorch-backed neural regressors.
 
     A subclass builds its network in ``_make_module``; this class holds the

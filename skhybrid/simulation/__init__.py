@@ -6,6 +6,7 @@ whole horizon. Every estimator that predicts the next state has a ``simulate``
 method that delegates to :func:`simulate`.
 """
 
+from skhybrid.simulation._plot import SimulationDisplay
 from skhybrid.simulation._simulate import SimulatorMixin, simulate
 
-__all__ = ["SimulatorMixin", "simulate"]
+__all__ = ["SimulationDisplay", "SimulatorMixin", "simulate"]

@@ -151,3 +151,28 @@ def test_noise_paths_and_band_widen():
     np.testing.assert_allclose(std[:, 0], 0.0, atol=1e-12)  # measured initial state
     # The band widens from one step ahead to the stationary spread.
     assert np.all(std[:, 1].mean(axis=0) < std[:, 50:].mean(axis=(0, 1)))
+
+
+def test_display_from_estimator_draws_band_and_rmse():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from skhybrid.domain import LinearStateSpaceModel
+    from skhybrid.simulation import SimulationDisplay
+
+    X_seq, U_seq = _sequences(n_traj=2, n_times=120, seed=4)
+    X, y = WindowLayout(N_STATES, N_INPUTS, 1).make_rows(list(X_seq), list(U_seq))
+    model = HybridBoostingRegressor(
+        [("physics", LinearStateSpaceModel())], noise_model="gaussian"
+    ).fit(X, y)
+    disp = SimulationDisplay.from_estimator(
+        model, U_seq[0], X_seq[0], n_init=1, return_std=True, random_state=0
+    )
+    sim = model.simulate(U_seq[0], X_seq[0, :1], return_std=True, random_state=0)[0]
+    expected = np.sqrt(np.mean((sim[1:] - X_seq[0, 1:]) ** 2, axis=0))
+    np.testing.assert_allclose(disp.rmse_, expected)
+    assert disp.axes_.shape == (2, N_STATES)
+    assert len(disp.axes_[0, 0].collections) == 1  # the band
+    plt.close(disp.figure_)

@@ -20,11 +20,18 @@ from skhybrid.utils._sklearn_compat import (
     _fit_context,
     validate_data,
 )
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["DomainModel"]
 
 
-class DomainModel(SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator):
+class DomainModel(
+    SimulatorMixin,
+    TransactionalFitMixin,
+    VersionedPickleMixin,
+    RegressorMixin,
+    BaseEstimator,
+):
     """Base class of domain (physics) models fitted with ``least_squares``.
 
     A subclass declares its parameters and writes its equations once against an

@@ -21,6 +21,7 @@ from skhybrid.utils._sklearn_compat import (
     _fit_context,
     validate_data,
 )
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["HybridBoostingRegressor", "StageWhiteness"]
 
@@ -57,7 +58,11 @@ class StageWhiteness:
 
 
 class HybridBoostingRegressor(
-    SimulatorMixin, VersionedPickleMixin, RegressorMixin, _BaseComposition
+    SimulatorMixin,
+    TransactionalFitMixin,
+    VersionedPickleMixin,
+    RegressorMixin,
+    _BaseComposition,
 ):
     """Sequential hybrid model: each stage is fitted to what the earlier stages left.
 

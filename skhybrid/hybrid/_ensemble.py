@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.domain._base import DomainModel, _ParameterSpec
 from skhybrid.exceptions import TrainingDivergedError
 from skhybrid.losses import OBJECTIVES, needs_time_order, objective_value
+from skhybrid.neural._callbacks import check_divergence
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -21,12 +22,17 @@ from skhybrid.utils._sklearn_compat import (
     _fit_context,
     validate_data,
 )
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["HybridEnsembleRegressor"]
 
 
 class HybridEnsembleRegressor(
-    SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator
+    SimulatorMixin,
+    TransactionalFitMixin,
+    VersionedPickleMixin,
+    RegressorMixin,
+    BaseEstimator,
 ):
     """Parallel hybrid model: physics parameters and network weights trained jointly.
 
@@ -355,6 +361,13 @@ class HybridEnsembleRegressor(
                     f"{epoch_loss} after epoch {epoch + 1}; lower the learning rate "
                     f"(got lr={self.lr})."
                 )
+            check_divergence(
+                epoch_loss,
+                self.loss_curve_[0] if self.loss_curve_ else None,
+                name="HybridEnsembleRegressor's training objective",
+                epoch=epoch + 1,
+                lr=self.lr,
+            )
             self.loss_curve_.append(epoch_loss)
             scheduler.step(epoch_loss)
             if epoch_loss < best:

@@ -20,13 +20,14 @@ import numpy as np
 from sklearn.utils import check_random_state
 
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["AutoRegressiveNoise", "GaussianNoise", "make_noise_model"]
 
 NOISE_MODELS = ("gaussian", "ar")
 
 
-class GaussianNoise(VersionedPickleMixin):
+class GaussianNoise(TransactionalFitMixin, VersionedPickleMixin):
     """Independent Gaussian noise with a mean and a covariance across outputs.
 
     Attributes
@@ -105,7 +106,7 @@ class GaussianNoise(VersionedPickleMixin):
         return self.mean_ + z @ root.T
 
 
-class AutoRegressiveNoise(VersionedPickleMixin):
+class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
     """One autoregressive process per output, order chosen by an information criterion.
 
     For each output, :func:`statsmodels.tsa.ar_model.ar_select_order` picks the lags

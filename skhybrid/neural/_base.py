@@ -1,6 +1,7 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
 import copy
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -26,12 +27,31 @@ from skhybrid.utils._sklearn_compat import (
     _fit_context,
     validate_data,
 )
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["BaseNeuralRegressor"]
 
 # Rows per forward pass at prediction time: bounds memory, not results (the
 # module runs in eval mode and in float64, see _forward).
 _PREDICT_CHUNK = 65536
+
+
+class _Net(NeuralNetRegressor):
+    """skorch's regressor, remembering whether a Ctrl-C cut its training short.
+
+    skorch ends training on ``KeyboardInterrupt`` (its early stopping raises one
+    too) and keeps the weights it has; ``interrupted_`` tells the two apart.
+    """
+
+    def fit_loop(self, X, y=None, epochs=None, **fit_params):
+        self.interrupted_ = False
+        try:
+            return super().fit_loop(X, y, epochs=epochs, **fit_params)
+        except KeyboardInterrupt:
+            stopper = dict(self.callbacks_).get("early_stopping")
+            stopped = stopper is not None and stopper.misses_ >= stopper.patience
+            self.interrupted_ = not stopped
+            raise
 
 
 def _progress_bar():
@@ -45,7 +65,11 @@ def _progress_bar():
 
 
 class BaseNeuralRegressor(
-    SimulatorMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator
+    SimulatorMixin,
+    TransactionalFitMixin,
+    VersionedPickleMixin,
+    RegressorMixin,
+    BaseEstimator,
 ):
     """Base class of the skorch-backed neural regressors.
 
@@ -340,7 +364,7 @@ class BaseNeuralRegressor(
         with torch.random.fork_rng(devices=self._rng_devices()):
             torch.manual_seed(seed)
             module = self._training_module(self._make_module(n_features, n_outputs))
-            net = NeuralNetRegressor(
+            net = _Net(
                 module=module,
                 criterion=criterion,
                 criterion__objective=self.objective,
@@ -370,6 +394,14 @@ class BaseNeuralRegressor(
         self.history_ = net.history
         self.n_epochs_ = sum("train_loss" in row for row in net.history)
         self.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
+        if getattr(net, "interrupted_", False):
+            warnings.warn(
+                f"training of {type(self).__name__} was interrupted (Ctrl-C) after "
+                f"{self.n_epochs_} epochs; the model keeps the weights of its best "
+                f"epoch so far ({self.best_epoch_}).",
+                UserWarning,
+                stacklevel=2,
+            )
         return self
 
     def _forward(self, module, Xs):

@@ -27,9 +27,10 @@ class BatchIterator:
     shuffle : bool, default=False
         Shuffle before each pass.
     contiguous : bool, default=False
-        ``False``: batches of ``batch_size`` rows; with ``shuffle`` the rows are
-        shuffled; a last batch of a single row joins the one before it (batch
-        normalisation needs two rows to train). ``True``: the rows are cut into
+        ``False``: the rows are spread evenly over ``ceil(n / batch_size)``
+        batches, whose sizes differ by at most one row (never a tiny last batch
+        whose one noisy step per epoch could decide the result); with
+        ``shuffle`` the rows are shuffled. ``True``: the rows are cut into
         ``max(1, n // batch_size)`` contiguous blocks of at least ``batch_size``
         rows, kept in time order inside each block; ``shuffle`` shuffles the order
         of the blocks only. Objectives with a Ljung-Box term use blocks.
@@ -44,11 +45,11 @@ class BatchIterator:
     def _bounds(self, n):
         if self.contiguous:
             n_blocks = max(1, n // self.batch_size)
-            edges = [(i * n) // n_blocks for i in range(n_blocks + 1)]
         else:
-            edges = [*range(0, n, self.batch_size), n]
-            if len(edges) > 2 and edges[-1] - edges[-2] == 1:
-                del edges[-2]
+            n_blocks = max(1, math.ceil(n / self.batch_size))
+            # Batch normalisation needs two rows per batch to train.
+            n_blocks = max(1, min(n_blocks, n // 2))
+        edges = [(i * n) // n_blocks for i in range(n_blocks + 1)]
         return list(pairwise(edges))
 
     def __len__(self):
@@ -71,24 +72,75 @@ class BatchIterator:
             yield X[start:stop], y[start:stop]
 
 
+#: A loss this many times its first epoch's value (or 1, whichever is larger)
+#: means the training blew up.
+DIVERGENCE_GROWTH = 1e3
+#: Losses are computed on standardised targets, where predicting the mean costs
+#: about 1; a loss above this bound is a blow-up whatever the first epoch was.
+DIVERGENCE_BOUND = 1e6
+
+
+def check_divergence(loss, first, *, name, epoch, lr):
+    """Raise TrainingDivergedError when ``loss`` is non-finite or has blown up.
+
+    Parameters
+    ----------
+    loss : float
+        The loss of this epoch.
+    first : float or None
+        The same loss at the first epoch (None at the first epoch itself).
+    name : str
+        What the loss is, for the message ("train loss", "valid loss").
+    epoch : int
+        The epoch, for the message.
+    lr : float
+        The learning rate, for the advice in the message.
+    """
+    advice = (
+        f"lower lr (for example to lr={lr / 10:g}) or check the data for extreme "
+        "values."
+    )
+    if not math.isfinite(loss):
+        raise TrainingDivergedError(
+            f"the {name} became {loss} at epoch {epoch} with lr={lr}; {advice}"
+        )
+    reference = 1.0 if first is None or not math.isfinite(first) else max(1.0, first)
+    if loss > DIVERGENCE_BOUND or loss > DIVERGENCE_GROWTH * reference:
+        raise TrainingDivergedError(
+            f"the {name} grew to {loss:.3g} at epoch {epoch} with lr={lr} (first "
+            f"epoch: {first if first is not None else loss:.3g}; losses are on "
+            f"standardised targets, where predicting the mean costs about 1); the "
+            f"training blew up: {advice}"
+        )
+
+
 class DivergenceCheck(Callback):
     """Stop training with :class:`~skhybrid.exceptions.TrainingDivergedError`.
 
     Checks the epoch's training loss (and validation loss, where there is one): a
-    NaN or infinite value means the weights have blown up, usually because the
-    learning rate is too large.
+    NaN or infinite value, a loss more than ``DIVERGENCE_GROWTH`` times the first
+    epoch's (or 1), or above ``DIVERGENCE_BOUND``, means the weights have blown
+    up, usually because the learning rate is too large. A blow-up that stays
+    finite is caught too.
     """
 
     def __init__(self, lr):
         self.lr = lr
 
+    def on_train_begin(self, net, **kwargs):
+        self.first_ = {}
+
     def on_epoch_end(self, net, **kwargs):
         row = net.history[-1]
         for key in ("train_loss", "valid_loss"):
             value = row.get(key)
-            if value is not None and not math.isfinite(value):
-                raise TrainingDivergedError(
-                    f"the {key.replace('_', ' ')} became {value} at epoch "
-                    f"{row['epoch']} with lr={self.lr}; lower lr (for example to "
-                    f"lr={self.lr / 10:g}) or check the data for extreme values."
-                )
+            if value is None:
+                continue
+            check_divergence(
+                value,
+                self.first_.get(key),
+                name=key.replace("_", " "),
+                epoch=row["epoch"],
+                lr=self.lr,
+            )
+            self.first_.setdefault(key, value)

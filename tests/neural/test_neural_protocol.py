@@ -158,8 +158,17 @@ def test_batch_iterator_blocks_and_tails():
     sizes = [len(xb) for xb, _ in blocks]
     assert len(blocks) == 4 and sum(sizes) == 103 and min(sizes) >= 25
     rows = BatchIterator(ds, batch_size=51, shuffle=False)
-    # a last batch of one row joins the one before (batch norm needs 2 rows)
-    assert [len(xb) for xb, _ in rows] == [51, 52]
+    # rows spread evenly over ceil(103 / 51) = 3 batches: no tiny last batch
+    assert [len(xb) for xb, _ in rows] == [34, 34, 35]
+    for n, batch in [(3600, 512), (3520, 512), (3600, 450), (1000, 999), (6, 2)]:
+        sizes = [
+            len(xb)
+            for xb, _ in BatchIterator(
+                Dataset(torch.zeros(n, 1), torch.zeros(n, 1)), batch_size=batch
+            )
+        ]
+        assert sum(sizes) == n and max(sizes) - min(sizes) <= 1 and min(sizes) >= 2
+        assert max(sizes) <= batch
     seen = torch.cat([xb for xb, _ in BatchIterator(ds, batch_size=10, shuffle=True)])
     assert torch.equal(torch.sort(seen[:, 0]).values, torch.arange(103.0))
 
@@ -168,7 +177,8 @@ def test_keyboard_interrupt_keeps_best_weights(data):
     X, y = data
     params = dict(random_state=3, lr=0.003, validation_fraction=0.2)
     interrupted = _tiny(DenseRegressor, callbacks=[InterruptAt(3)], **params)
-    interrupted.set_params(max_epochs=50).fit(X, y)
+    with pytest.warns(UserWarning, match="interrupted"):
+        interrupted.set_params(max_epochs=50).fit(X, y)
     assert interrupted.n_epochs_ == 2
     assert interrupted.best_epoch_ == 2
     # the same seed trained for exactly 2 epochs has the same weights

@@ -316,6 +316,13 @@ def ljung_box_test(residuals, lags=20, *, model_df=0, alpha=0.05):
     could predict. With white residuals the test passes with probability
     ``1 - alpha``.
 
+    Degenerate residuals give answers, not NaN: a constant column (a perfect
+    model's zero residual included) has no autocorrelation, so its statistic is
+    0 and its p-value 1 (it passes; a constant offset is a bias, which no
+    whiteness test sees). The statistic does not depend on the residuals' scale
+    and is computed without overflow at any scale. NaN or infinite residuals
+    raise a ValueError.
+
     Examples
     --------
     >>> import numpy as np
@@ -341,7 +348,17 @@ def ljung_box_test(residuals, lags=20, *, model_df=0, alpha=0.05):
     statistic = np.empty(r.shape[1])
     pvalue = np.empty(r.shape[1])
     for j in range(r.shape[1]):
-        frame = acorr_ljungbox(r[:, j], lags=[lags], model_df=model_df)
+        column = r[:, j]
+        scale = np.max(np.abs(column))
+        if np.ptp(column) == 0:
+            # A constant residual (zero included) has no autocorrelation: it is
+            # perfectly white. (A constant offset is a bias, which a whiteness
+            # test does not see; check the residual's mean for it.)
+            statistic[j], pvalue[j] = 0.0, 1.0
+            continue
+        # The statistic is scale invariant; dividing by the largest magnitude
+        # keeps statsmodels' sums of squares from overflowing at any scale.
+        frame = acorr_ljungbox(column / scale, lags=[lags], model_df=model_df)
         statistic[j] = frame["lb_stat"].iloc[-1]
         pvalue[j] = frame["lb_pvalue"].iloc[-1]
     return WhitenessResult(

@@ -88,8 +88,11 @@ def autocorrelation(residuals, nlags):
     """Sample autocorrelation of a series, per column, by FFT.
 
     The estimator is statsmodels' default ``acf(x, adjusted=False)``: the series is
-    demeaned and ``rho_k = sum_t x_t x_{t+k} / sum_t x_t^2``. A constant series has
-    zero autocorrelation at every lag (instead of 0 / 0).
+    demeaned and ``rho_k = sum_t x_t x_{t+k} / sum_t x_t^2``. A constant series
+    (zero included) has zero autocorrelation at every lag (instead of 0 / 0): it is
+    perfectly white. The result does not depend on the series' scale, and is
+    computed without overflow or underflow at any finite scale. NaN or infinite
+    values raise a ValueError.
 
     Parameters
     ----------
@@ -113,7 +116,23 @@ def autocorrelation(residuals, nlags):
     """
     xp = get_namespace(residuals)
     _check_series(residuals, nlags, xp)
-    centered = residuals - xp.mean(residuals, axis=0)
+    # The autocorrelation does not depend on the series' scale: divide each column
+    # by its largest magnitude first, so that no scale (1e-200 or 1e200) under- or
+    # overflows. The divisor is a constant (detached in torch); gradients are exact
+    # because rho is scale invariant. The maximum propagates NaN and infinity, so
+    # checking it checks the whole series in one pass.
+    scale = xp.max(xp.abs(residuals), axis=0, keepdims=True)
+    if is_torch(xp):
+        scale = scale.detach()
+    if not bool(xp.all(xp.isfinite(scale))):
+        raise ValueError(
+            "residuals contain NaN or infinite values; the Ljung-Box statistic is "
+            "undefined for them (a model that produced them diverged, or the data "
+            "hold missing values)."
+        )
+    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
+    scaled = residuals / scale
+    centered = scaled - xp.mean(scaled, axis=0)
     acov = _autocovariance(centered, nlags, xp)
     variance = acov[0:1, ...]
     # A constant series has variance 0 and zero covariances: report rho = 0 there

@@ -239,3 +239,39 @@ def test_rmse_db_rejects_bad_window(kwargs, match):
 def test_rmse_db_rejects_shape_mismatch():
     with pytest.raises(ValueError, match="same shape"):
         rmse_db(np.zeros((10, 2)), np.zeros((10, 1)))
+
+
+def test_degenerate_residuals_give_documented_answers():
+    import warnings
+
+    from skhybrid.diagnostics import diagnose, ljung_box_test
+    from skhybrid.domain import ParametricModel
+
+    rng = np.random.default_rng(0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning either
+        zero = ljung_box_test(np.zeros((100, 2)), lags=20)
+        np.testing.assert_array_equal(zero.statistic, [0.0, 0.0])
+        np.testing.assert_array_equal(zero.pvalue, [1.0, 1.0])
+        assert zero.passed.all()
+        mixed = np.column_stack([rng.standard_normal(300), np.full(300, 3.0)])
+        res = ljung_box_test(mixed, lags=20)
+        assert res.statistic[1] == 0.0 and res.pvalue[1] == 1.0
+        assert 0 < res.pvalue[0] < 1
+        # Any scale gives the same statistic, without overflow.
+        for scale in (1e-200, 1e200, 1e300):
+            np.testing.assert_allclose(
+                ljung_box_test(mixed * scale, lags=20).statistic,
+                res.statistic,
+                rtol=1e-9,
+            )
+
+        def gain(X, *, k, xp=np):
+            return k * X[:, :1]
+
+        X = rng.normal(size=(200, 2))
+        perfect = ParametricModel(gain, {"k": 2.0}, fixed=("k",)).fit(X, 2 * X[:, :1])
+        report = diagnose(perfect, X, 2 * X[:, :1], lags=20)
+        assert report.passed
+    with pytest.raises(ValueError, match=r"NaN|infinity"):
+        ljung_box_test(np.array([1.0, np.nan, 2.0, 3.0, 1.0]), lags=2)

@@ -178,3 +178,25 @@ def test_blocked_fft_path_matches_statsmodels(rng, n, lags):
 def test_blocked_fft_path_gradcheck(rng):
     x = torch.tensor(rng.standard_normal(1100), requires_grad=True)
     assert torch.autograd.gradcheck(lambda t: ljung_box(t, lags=3), (x,))
+
+
+def test_non_finite_residuals_are_rejected_and_any_scale_works():
+    import torch
+
+    from skhybrid.losses import ljung_box
+
+    x = np.random.default_rng(0).standard_normal((500, 2))
+    q = ljung_box(x, lags=20)
+    for scale in (1e-200, 1e200, 1e300):
+        np.testing.assert_allclose(ljung_box(x * scale, lags=20), q, rtol=1e-9)
+        t = torch.tensor(x * scale, requires_grad=True)
+        ljung_box(t, lags=20).backward()
+        assert torch.isfinite(t.grad).all()
+    assert ljung_box(np.zeros((100, 2)), lags=20) == 0.0
+    for bad in (np.nan, np.inf, -np.inf):
+        y = x.copy()
+        y[3, 1] = bad
+        with pytest.raises(ValueError, match="NaN or infinite"):
+            ljung_box(y, lags=20)
+        with pytest.raises(ValueError, match="NaN or infinite"):
+            ljung_box(torch.tensor(y), lags=20)

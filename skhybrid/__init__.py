@@ -20,7 +20,7 @@ Every model is a scikit-learn estimator. The subpackages hold:
 
 import importlib
 
-__version__ = "0.1.0"
+__version__ = "0.2.0.dev0"
 
 __all__ = [
     "__version__",

@@ -164,7 +164,7 @@ class Silverbox(MeasuredSystem):
 
     def physics(self, y_train, dt, quick=False):
         # Start from a second-order linear fit (poles mapped to continuous time).
-        return _DuffingFromARX(dt, max_nfev=20 if quick else 60)
+        return _DuffingFromARX(dt, max_nfev=20 if quick else 30)
 
 
 class _DuffingFromARX(OutputErrorModel):

@@ -422,7 +422,8 @@ def _run_measured(args):
         )
         return 2
     out = args.out
-    if os.path.exists(os.path.join(out, "results.json")) and not (args.overwrite or args.resume):
+    done = os.path.exists(os.path.join(out, "results.json"))
+    if done and not (args.overwrite or args.resume):
         _error(f"{out} already holds results; pass --overwrite to replace them")
         return 2
     try:

@@ -49,7 +49,7 @@ def tanks_output(x, p):
 
 
 def emps_step(x, u, p, *, dt=1e-3, gtau=35.15, eps=1e-4):
-    """Rigid axis ``M q'' = gtau u - Fv q' - Fc sign(q') - offset`` (semi-implicit Euler).
+    """Rigid axis ``M q'' = gtau u - Fv q' - Fc sign(q') - offset`` (semi-implicit).
 
     ``p`` columns: ``M`` (kg), ``Fv`` (N s/m), ``Fc`` (N), ``offset`` (N), and
     optionally ``Fv_neg``, ``Fc_neg`` (friction for negative velocities, the
@@ -143,7 +143,15 @@ class OutputErrorModel:
     """
 
     def __init__(
-        self, step, output, params, *, bounds=None, x0, state_names, x0_from_y=None,
+        self,
+        step,
+        output,
+        params,
+        *,
+        bounds=None,
+        x0,
+        state_names,
+        x0_from_y=None,
         max_nfev=100,
     ):
         self.step = step
@@ -167,14 +175,26 @@ class OutputErrorModel:
         x0 = self.x0 if self.x0_from_y is None else self.x0_from_y(y[:20])
         z0 = np.r_[self._p(self.params), x0]
         scale = np.abs(z0) + 1e-3
-        lo = np.r_[[self.bounds.get(k, (-np.inf, np.inf))[0] for k in names],
-                   -np.inf * np.ones(len(x0))] / scale
-        hi = np.r_[[self.bounds.get(k, (-np.inf, np.inf))[1] for k in names],
-                   np.inf * np.ones(len(x0))] / scale
+        lo = (
+            np.r_[
+                [self.bounds.get(k, (-np.inf, np.inf))[0] for k in names],
+                -np.inf * np.ones(len(x0)),
+            ]
+            / scale
+        )
+        hi = (
+            np.r_[
+                [self.bounds.get(k, (-np.inf, np.inf))[1] for k in names],
+                np.inf * np.ones(len(x0)),
+            ]
+            / scale
+        )
 
         def residuals(Z):
             theta = Z * scale
-            Y = simulate_batch(self.step, self.output, theta[:, :n_p], theta[:, n_p:], u)
+            Y = simulate_batch(
+                self.step, self.output, theta[:, :n_p], theta[:, n_p:], u
+            )
             R = Y - y
             return np.where(np.isfinite(R), R, 1e3)
 
@@ -213,7 +233,7 @@ class OutputErrorModel:
 
         def fun(x0):
             r = simulate_batch(self.step, self.output, p, x0[None], u_init)[0] - y_init
-            return np.where(np.isfinite(r), r, 1e3)
+            return np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6)
 
         return least_squares(fun, guess).x
 

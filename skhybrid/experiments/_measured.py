@@ -1,4 +1,4 @@
-"""Measured benchmarks in ``skhybrid run``: official splits, model zoo, published figures.
+"""Measured benchmarks in ``skhybrid run``: splits, model zoo, published figures.
 
 Each system loads its benchmark files from a folder the user names (``--data``),
 uses the official split and initialisation window of the ``nonlinear-benchmarks``
@@ -107,13 +107,26 @@ class CascadedTanks(MeasuredSystem):
             lambda x, u, p: tanks_step(x, u, p, dt=dt),
             tanks_output,
             {
-                "k1": 0.05, "k2": 0.05, "k3": 0.05, "k4": 0.03, "x1max": 6.0,
-                "kof": 0.3, "k5": 0.001, "k6": 0.001, "y_offset": 0.5,
+                "k1": 0.05,
+                "k2": 0.05,
+                "k3": 0.05,
+                "k4": 0.03,
+                "x1max": 6.0,
+                "kof": 0.3,
+                "k5": 0.001,
+                "k6": 0.001,
+                "y_offset": 0.5,
             },
             bounds={
-                "k1": (1e-4, 1), "k2": (1e-4, 1), "k3": (1e-4, 1), "k4": (1e-4, 1),
-                "x1max": (1.0, 100.0), "kof": (0.0, 1.0), "k5": (0.0, 1.0),
-                "k6": (0.0, 1.0), "y_offset": (-3.0, 3.0),
+                "k1": (1e-4, 1),
+                "k2": (1e-4, 1),
+                "k3": (1e-4, 1),
+                "k4": (1e-4, 1),
+                "x1max": (1.0, 100.0),
+                "kof": (0.0, 1.0),
+                "k5": (0.0, 1.0),
+                "k6": (0.0, 1.0),
+                "y_offset": (-3.0, 3.0),
             },
             x0=[5.0, float(y_train[0, 0])],
             state_names=["upper level (latent)", "lower level"],
@@ -157,9 +170,7 @@ class Silverbox(MeasuredSystem):
         s = d.splits
         train = s["train"]
         n = 16384 if quick else len(train.u)
-        tests = {
-            k: (s[k].u, s[k].y) for k in ("test_multisine", "test_arrow_full")
-        }
+        tests = {k: (s[k].u, s[k].y) for k in ("test_multisine", "test_arrow_full")}
         return (train.u[:n], train.y[:n]), tests, d
 
     def physics(self, y_train, dt, quick=False):
@@ -184,13 +195,18 @@ class _DuffingFromARX(OutputErrorModel):
 
     def fit(self, u, y):
         u0, y0 = np.ravel(u), np.ravel(y)
-        A = np.column_stack([y0[1:-1], y0[:-2], u0[1:-1], u0[:-2], np.ones(len(y0) - 2)])
+        A = np.column_stack(
+            [y0[1:-1], y0[:-2], u0[1:-1], u0[:-2], np.ones(len(y0) - 2)]
+        )
         th = np.linalg.lstsq(A, y0[2:], rcond=None)[0]
         s = np.log(np.roots([1, -th[0], -th[1]]).astype(complex)) / self.dt
         a = float(abs(s[0] * s[1]))
         gain = (th[2] + th[3]) / (1 - th[0] - th[1])
         self.params = {
-            "k": gain * a, "d": float(-(s[0] + s[1]).real), "a": a, "b": 0.0,
+            "k": gain * a,
+            "d": float(-(s[0] + s[1]).real),
+            "a": a,
+            "b": 0.0,
             "y_offset": float(np.mean(y0)),
         }
         return super().fit(u, y)
@@ -200,7 +216,9 @@ MEASURED_SYSTEMS = {cls.name: cls() for cls in (CascadedTanks, EMPS, Silverbox)}
 
 
 def _rmse(y, pred, n_init):
-    return float(np.sqrt(np.mean((np.ravel(y)[n_init:] - np.ravel(pred)[n_init:]) ** 2)))
+    return float(
+        np.sqrt(np.mean((np.ravel(y)[n_init:] - np.ravel(pred)[n_init:]) ** 2))
+    )
 
 
 def _windows(columns, n):
@@ -287,7 +305,10 @@ def _select_narx(make, u, y, n_init, candidates, notes, label):
         except (SimulationDivergedError, ValueError, FloatingPointError):
             scores[n] = float("inf")
     best = min(scores, key=scores.get)
-    notes[label] = {"validation_rmse": {str(k): v for k, v in scores.items()}, "n": best}
+    notes[label] = {
+        "validation_rmse": {str(k): v for k, v in scores.items()},
+        "n": best,
+    }
     return make(best).fit(u, y)
 
 
@@ -351,7 +372,7 @@ def _fit_zoo(system, train, n_init, dt, *, quick, seed, log):
 
 
 def _hull_exit(train, test, n_init):
-    """First test index whose window ``[y(t), y(t-1), u(t)]`` leaves the training hull."""
+    """First test index whose ``[y(t), y(t-1), u(t)]`` leaves the training hull."""
     from skhybrid.model_selection import in_convex_hull
 
     def rows(u, y):
@@ -454,7 +475,7 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
     fig, axes = plt.subplots(
         2, len(tests), figsize=(7 * len(tests), 6), sharex="col", squeeze=False
     )
-    for j, (split, (u, y)) in enumerate(tests.items()):
+    for j, (split, (_u, y)) in enumerate(tests.items()):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
         top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
@@ -484,7 +505,9 @@ def _html(results, figure, path):
     rows = []
     for split, scores in results["test_rmse"].items():
         for model, value in scores.items():
-            rows.append(f"<tr><td>{split}</td><td>{model}</td><td>{value:.4g}</td><td>ours</td></tr>")
+            rows.append(
+                f"<tr><td>{split}</td><td>{model}</td><td>{value:.4g}</td><td>ours</td></tr>"
+            )
         for label, entry in results["published"].get(split, {}).items():
             rows.append(
                 f"<tr><td>{split}</td><td>{label}</td><td>{entry['rmse']:.4g}</td>"
@@ -495,16 +518,16 @@ def _html(results, figure, path):
         for k, v in results["physics_params"].items()
     )
     html = f"""<!doctype html><html><head><meta charset="utf-8">
-<title>{results['title']}</title></head><body>
-<h1>{results['title']}</h1>
+<title>{results["title"]}</title></head><body>
+<h1>{results["title"]}</h1>
 <p>Free-run simulation RMSE on the official test record(s) [{unit}], the first
-{results['n_init']} measured samples initialise the state (official protocol).
+{results["n_init"]} measured samples initialise the state (official protocol).
 Every model was fitted on the estimation record only; window lengths were chosen on
-its last 25 %. quick = {results['quick']}, seed = {results['seed']},
-{results['wall_time_s']:.0f} s.</p>
+its last 25 %. quick = {results["quick"]}, seed = {results["seed"]},
+{results["wall_time_s"]:.0f} s.</p>
 <table border="1" cellpadding="3"><tr><th>test</th><th>model</th>
 <th>RMSE [{unit}]</th><th>source</th></tr>
-{''.join(rows)}</table>
+{"".join(rows)}</table>
 <p>Physics parameters: {params}</p>
 <img src="{figure}" style="max-width:100%">
 </body></html>"""

@@ -9,6 +9,7 @@ Run them from the shell with ``skhybrid run pendulum --quick`` (see
 """
 
 from skhybrid.experiments._claims import check_claims
+from skhybrid.experiments._measured import MEASURED_SYSTEMS, PUBLISHED, run_measured
 from skhybrid.experiments._report import write_report
 from skhybrid.experiments._runner import ExperimentResult, run_experiment
 from skhybrid.experiments._settings import ExperimentSettings
@@ -16,6 +17,8 @@ from skhybrid.experiments._systems import SYSTEMS, System
 from skhybrid.experiments._zoo import model_zoo
 
 __all__ = [
+    "MEASURED_SYSTEMS",
+    "PUBLISHED",
     "SYSTEMS",
     "ExperimentResult",
     "ExperimentSettings",
@@ -23,5 +26,6 @@ __all__ = [
     "check_claims",
     "model_zoo",
     "run_experiment",
+    "run_measured",
     "write_report",
 ]

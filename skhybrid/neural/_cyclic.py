@@ -224,7 +224,7 @@ class CyclicRegressor(BaseNeuralRegressor):
 
         Returns
         -------
-        X_rec : ndarray of shape (n_samples, n_features_in_)
+        X_rec : ndarray of shape (n_samples, n_features)
             Float64 reconstruction of the inputs, in the units of ``X``.
         """
         check_is_fitted(self)

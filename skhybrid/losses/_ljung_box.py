@@ -163,6 +163,7 @@ def weighted_autocorrelations(residuals, lags=20):
     Returns
     -------
     q : ndarray or torch.Tensor of shape (lags,) or (lags, n_outputs)
+        The weighted autocorrelations at lags 1 to ``lags``.
 
     Examples
     --------
@@ -213,7 +214,7 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
 
     See Also
     --------
-    skhybrid.diagnostics.ljung_box_test : the statistic with its p-value.
+    skhybrid.diagnostics.ljung_box_test : The statistic with its p-value.
 
     References
     ----------

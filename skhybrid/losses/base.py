@@ -38,7 +38,18 @@ OBJECTIVES = ("mse", "ljung_box", "mse+ljung_box")
 
 
 def check_objective(objective):
-    """Raise a ValueError unless ``objective`` is one of :data:`OBJECTIVES`."""
+    """Raise a ValueError unless ``objective`` is one of :data:`OBJECTIVES`.
+
+    Parameters
+    ----------
+    objective : str
+        The objective's name.
+
+    Returns
+    -------
+    objective : str
+        ``objective`` itself, when it is valid.
+    """
     if objective not in OBJECTIVES:
         raise ValueError(
             f"objective must be one of {OBJECTIVES}; got objective={objective!r}."
@@ -47,12 +58,34 @@ def check_objective(objective):
 
 
 def needs_time_order(objective):
-    """Whether ``objective`` depends on the order of the rows (has a Ljung-Box term)."""
+    """Whether ``objective`` depends on the order of the rows (has a Ljung-Box term).
+
+    Parameters
+    ----------
+    objective : str
+        One of :data:`OBJECTIVES`.
+
+    Returns
+    -------
+    time_ordered : bool
+        True when the objective holds a Ljung-Box term, which needs rows in time
+        order.
+    """
     return "ljung_box" in check_objective(objective)
 
 
 def mse(residuals):
     """Mean squared residual over all samples and outputs.
+
+    Parameters
+    ----------
+    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+        The residuals.
+
+    Returns
+    -------
+    mse : float or torch.Tensor
+        Their mean square (a 0-d tensor for torch input, differentiable).
 
     Examples
     --------

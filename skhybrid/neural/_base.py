@@ -1,6 +1,5 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
-import copy
 import warnings
 from numbers import Integral, Real
 
@@ -33,7 +32,7 @@ __all__ = ["BaseNeuralRegressor"]
 
 # Rows per forward pass at prediction time: bounds memory, not results (the
 # module runs in eval mode and in float64, see _forward).
-_PREDICT_CHUNK = 65536
+_PREDICT_CHUNK = 8192
 
 
 #: The training-protocol parameters every neural estimator shares, written once
@@ -493,25 +492,42 @@ class BaseNeuralRegressor(
             )
         return self
 
-    def _forward(self, module, Xs):
-        """Run a module in eval mode on standardised float64 rows, in chunks.
+    def _forward(self, module, X, mean, scale):
+        """Run a module in eval mode on ``(X - mean) / scale``, in float64 chunks.
 
-        The computation runs in float64 on a float64 copy of the (float32-trained)
-        weights: float32 matrix products may round differently for different
-        batch sizes, which would make a row's prediction depend on the other rows
-        predicted with it.
+        The computation runs in float64 with float64 copies of the (float32-trained)
+        weights passed through :func:`torch.func.functional_call`: float32 matrix
+        products may round differently for different batch sizes, which would make
+        a row's prediction depend on the other rows predicted with it. The module
+        itself is neither copied nor changed, rows are standardised chunk by chunk
+        and the output is written into one preallocated array, so the memory
+        beyond the input and the output stays a few chunks' worth.
         """
-        module = copy.deepcopy(module).double().eval()
-        out = []
-        with torch.no_grad():
-            for start in range(0, Xs.shape[0], _PREDICT_CHUNK):
-                chunk = torch.as_tensor(
-                    np.ascontiguousarray(Xs[start : start + _PREDICT_CHUNK]),
-                    dtype=torch.float64,
-                    device=self.device,
-                )
-                out.append(module(chunk).cpu().numpy())
-        return np.concatenate(out)
+        from torch.func import functional_call
+
+        state = {
+            name: (t.detach().to(torch.float64) if t.is_floating_point() else t)
+            for name, t in (*module.named_parameters(), *module.named_buffers())
+        }
+        training = module.training
+        module.eval()
+        out = None
+        try:
+            with torch.no_grad():
+                for start in range(0, X.shape[0], _PREDICT_CHUNK):
+                    stop = start + _PREDICT_CHUNK
+                    chunk = torch.as_tensor(
+                        (X[start:stop] - mean) / scale,
+                        dtype=torch.float64,
+                        device=self.device,
+                    )
+                    part = functional_call(module, state, (chunk,)).cpu().numpy()
+                    if out is None:
+                        out = np.empty((X.shape[0], part.shape[1]))
+                    out[start:stop] = part
+        finally:
+            module.train(training)
+        return out
 
     def predict(self, X):
         """Predict with the trained network.
@@ -529,6 +545,7 @@ class BaseNeuralRegressor(
         """
         check_is_fitted(self)
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        Xs = (X - self.x_mean_) / self.x_scale_
-        y_pred = self._forward(self._fitted_module(), Xs) * self.y_scale_ + self.y_mean_
+        y_pred = self._forward(self._fitted_module(), X, self.x_mean_, self.x_scale_)
+        y_pred *= self.y_scale_
+        y_pred += self.y_mean_
         return y_pred[:, 0] if self._y_1d else y_pred

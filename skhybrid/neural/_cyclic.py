@@ -180,9 +180,12 @@ class CyclicRegressor(BaseNeuralRegressor):
         """
         check_is_fitted(self)
         y = _check_y(y, self.n_outputs_)
-        ys = (y - self.y_mean_) / self.y_scale_
-        X_rec = self._forward(self._fitted_module().decoder, ys)
-        return X_rec * self.x_scale_ + self.x_mean_
+        X_rec = self._forward(
+            self._fitted_module().decoder, y, self.y_mean_, self.y_scale_
+        )
+        X_rec *= self.x_scale_
+        X_rec += self.x_mean_
+        return X_rec
 
 
 def _check_y(y, n_outputs):

@@ -79,6 +79,7 @@ def _folder(text):
 
 def _build_parser():
     from skhybrid.experiments import SYSTEMS
+    from skhybrid.experiments._measured import MEASURED_SYSTEMS
 
     parser = _Parser(
         prog="skhybrid",
@@ -98,9 +99,17 @@ def _build_parser():
     run.error = parser.error  # one-line errors for the subcommand too
     run.add_argument(
         "system",
-        choices=[*SYSTEMS, "all"],
+        choices=[*SYSTEMS, "all", *MEASURED_SYSTEMS],
         metavar="SYSTEM",
-        help="one of: " + ", ".join([*SYSTEMS, "all"]),
+        help="one of: " + ", ".join([*SYSTEMS, "all", *MEASURED_SYSTEMS])
+        + " (the last three are measured benchmarks and need --data)",
+    )
+    run.add_argument(
+        "--data",
+        type=_folder,
+        metavar="DIR",
+        help="folder holding the measured benchmark files (for example a clone's "
+        "../shared/data); needed by the measured systems",
     )
     run.add_argument(
         "--quick",
@@ -293,6 +302,11 @@ def main(argv=None):
             _error(f"{verb} needs {line}")
         return 2
 
+    from skhybrid.experiments._measured import MEASURED_SYSTEMS
+
+    if args.system in MEASURED_SYSTEMS:
+        return _run_measured(args)
+
     from skhybrid.experiments import SYSTEMS
     from skhybrid.experiments._store import RunFolder, RunFolderError
 
@@ -393,6 +407,37 @@ def _fit_all(args, names, folder, *, n_jobs):
         )
         for name in names
     ]
+
+
+def _run_measured(args):
+    """``skhybrid run cascaded-tanks|emps|silverbox --data DIR``."""
+    from skhybrid.experiments._measured import run_measured
+
+    if args.data is None:
+        _error(
+            f"{args.system} is a measured benchmark: pass --data DIR, the folder "
+            "holding its files (for example a clone's ../shared/data, with the "
+            "subfolders silverbox/, emps/ and cascaded_tanks/); skhybrid ships no "
+            "data and downloads nothing"
+        )
+        return 2
+    out = args.out
+    if os.path.exists(os.path.join(out, "results.json")) and not (args.overwrite or args.resume):
+        _error(f"{out} already holds results; pass --overwrite to replace them")
+        return 2
+    try:
+        run_measured(
+            args.system,
+            args.data,
+            out,
+            quick=args.quick,
+            seed=args.seed,
+            log=lambda line: sys.stdout.write(line + "\n"),
+        )
+    except FileNotFoundError as exc:
+        _error(str(exc))
+        return 2
+    return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

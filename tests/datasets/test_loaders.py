@@ -58,3 +58,41 @@ def test_missing_folder_names_the_path(loader, tmp_path):
         loader(tmp_path)
     with pytest.raises(TypeError, match="path"):
         loader(42)
+
+
+def test_splits_match_the_readme_indices(shared_data_dir):
+    """Each split is the README's official slice of the raw .mat records."""
+    from scipy.io import loadmat
+
+    sb = loadmat(shared_data_dir / "silverbox" / "SNLS80mV.mat")
+    u, y = sb["V1"][0], sb["V2"][0]
+    data = load_silverbox(shared_data_dir)
+    readme = {
+        "train": (40650, 105712),
+        "test_multisine": (105712, 127400),
+        "test_arrow_full": (100, 40575),
+        "test_arrow_no_extrapolation": (100, 32100),
+    }
+    assert data.split_indices == readme
+    for name, (start, stop) in readme.items():
+        assert_array_equal(data.splits[name].u[:, 0], u[start:stop])
+        assert_array_equal(data.splits[name].y[:, 0], y[start:stop])
+    # README: 54 arrow samples exceed the training range, the first at index 29049.
+    train_max = np.abs(data.splits["train"].y).max()
+    outside = np.flatnonzero(np.abs(data.splits["test_arrow_full"].y[:, 0]) > train_max)
+    assert outside.size == 54 and outside.min() == 29049
+
+    ct = loadmat(shared_data_dir / "cascaded_tanks" / "dataBenchmark.mat")
+    tanks = load_cascaded_tanks(shared_data_dir)
+    assert_array_equal(tanks.splits["train"].u, ct["uEst"])
+    assert_array_equal(tanks.splits["test"].y, ct["yVal"])
+    assert tanks.dt == float(ct["Ts"][0, 0]) == 4.0
+
+    emps = load_emps(shared_data_dir)
+    files = (("train", "DATA_EMPS.mat"), ("test", "DATA_EMPS_PULSES.mat"))
+    for name, filename in files:
+        mat = loadmat(shared_data_dir / "emps" / filename)
+        assert_array_equal(emps.splits[name].u, mat["vir"])
+        assert_array_equal(emps.splits[name].y, mat["qm"])
+    # The stored time stamps are 1 ms apart, the nominal dt.
+    assert_allclose(np.diff(emps.splits["train"].t[:, 0]).mean(), emps.dt, rtol=1e-3)

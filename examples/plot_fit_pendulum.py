@@ -41,3 +41,33 @@ for label, model in (("frozen wrong physics", wrong), ("refit physics", refit)):
     rmse = np.sqrt(np.mean((model.predict(X) - y) ** 2, axis=0))
     db = ", ".join(f"{v:6.1f}" for v in 20 * np.log10(rmse))
     print(f"  one-step RMSE of the {label:<20}: [{db}] dB (cos, sin, theta_dot)")
+
+# %%
+# The fitted parameters with their standard errors, and the one-step error of the
+# wrong and the refitted physics on each state.
+import matplotlib.pyplot as plt
+
+fig, (ax_p, ax_e) = plt.subplots(1, 2, figsize=(9, 3.4), layout="constrained")
+names = ["mass", "length"]
+ax_p.errorbar(
+    names,
+    [refit.params_[k] for k in names],
+    yerr=[3 * refit.params_std_[k] for k in names],
+    fmt="o",
+    capsize=6,
+    label="fitted (3 std)",
+)
+ax_p.axhline(1.0, color="0.5", linestyle=":", label="true")
+ax_p.set_title("Physical parameters")
+ax_p.legend()
+states = ["cos", "sin", "theta_dot"]
+for offset, (label, model) in zip(
+    (-0.2, 0.2), (("wrong", wrong), ("refit", refit)), strict=True
+):
+    rmse = np.sqrt(np.mean((model.predict(X) - y) ** 2, axis=0))
+    ax_e.bar(np.arange(3) + offset, rmse, width=0.4, label=label)
+ax_e.set_yscale("log")
+ax_e.set_xticks(range(3), states)
+ax_e.set_title("One-step RMSE")
+ax_e.legend()
+plt.show()

@@ -29,6 +29,18 @@ def step_width(n_features, n_steps):
 
     Raises a ValueError when ``n_features`` is not a multiple of ``n_steps``.
 
+    Parameters
+    ----------
+    n_features : int
+        Columns of a row.
+    n_steps : int
+        Time steps per row.
+
+    Returns
+    -------
+    width : int
+        Columns per time step.
+
     Examples
     --------
     >>> from skhybrid.preprocessing import step_width
@@ -49,6 +61,18 @@ def newest_step(X, n_steps):
 
     Works on NumPy arrays and torch tensors.
 
+    Parameters
+    ----------
+    X : ndarray or torch.Tensor of shape (n_samples, n_features)
+        Rows of ``n_steps`` time steps.
+    n_steps : int
+        Time steps per row.
+
+    Returns
+    -------
+    newest : ndarray or torch.Tensor of shape (n_samples, n_features // n_steps)
+        The newest step of each row.
+
     Examples
     --------
     >>> import numpy as np
@@ -62,6 +86,18 @@ def newest_step(X, n_steps):
 
 def split_steps(X, n_steps):
     """Reshape rows into ``(n_samples, n_steps, step_width)``, oldest step first.
+
+    Parameters
+    ----------
+    X : ndarray or torch.Tensor of shape (n_samples, n_features)
+        Rows of ``n_steps`` time steps.
+    n_steps : int
+        Time steps per row.
+
+    Returns
+    -------
+    steps : ndarray or torch.Tensor of shape (n_samples, n_steps, step_width)
+        The steps of each row, oldest first.
 
     Examples
     --------

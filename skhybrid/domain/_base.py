@@ -206,6 +206,8 @@ class DomainModel(
         Returns
         -------
         y_pred : ndarray or torch.Tensor of shape (n_samples, n_outputs)
+            The equations' next state, in ``X``'s namespace (differentiable in
+            torch).
         """
         xp = get_namespace(X)
         y_pred = self._equations(X, params, xp)

@@ -69,7 +69,7 @@ class ParametricModel(DomainModel):
 
     See Also
     --------
-    PendulumModel : a built-in physics model.
+    PendulumModel : A built-in physics model.
 
     Examples
     --------

@@ -119,8 +119,8 @@ class PendulumModel(DomainModel):
 
     See Also
     --------
-    ParametricModel : a domain model from a user's function.
-    skhybrid.datasets.make_pendulum : transitions simulated with these equations.
+    ParametricModel : A domain model from a user's function.
+    skhybrid.datasets.make_pendulum : Transitions simulated with these equations.
 
     Notes
     -----

@@ -96,6 +96,11 @@ _CHECKS = {"pendulum": _pendulum, "double-pendulum": _double_pendulum}
 def check_claims(result):
     """The paper's claims for ``result``'s system, each with passed and detail.
 
+    Parameters
+    ----------
+    result : ExperimentResult
+        A finished run of one system.
+
     Returns
     -------
     claims : list of dict

@@ -25,6 +25,15 @@ logger = logging.getLogger(__name__)
 class ExperimentResult:
     """Everything one run of one system produced.
 
+    Parameters
+    ----------
+    system : System
+        The system.
+    settings : ExperimentSettings
+        Sizes, architectures and seed.
+    splits : dict of str to Bunch
+        The simulated data of each split.
+
     Attributes
     ----------
     system : System
@@ -68,7 +77,17 @@ class ExperimentResult:
         return list(self.splits["train"].target_names)
 
     def windowed_db(self, split):
-        """``{model: (n_windows, n_outputs) RMSE in dB}`` over short windows."""
+        """RMSE in dB of every model over short windows of one test split.
+
+        Parameters
+        ----------
+        split : str
+            A test split's name.
+
+        Returns
+        -------
+        rmse_db : dict of str to ndarray of shape (n_windows, n_outputs)
+            ``{model: RMSE in dB per window and output}``."""
         y = self.splits[split].y
         return {
             model: rmse_db(y, pred, window=self.settings.window)
@@ -278,6 +297,7 @@ def run_experiment(
     Returns
     -------
     result : ExperimentResult
+        The fitted models' predictions, scores, parameters and fit records.
     """
     start = time.perf_counter()
     if isinstance(system, str):

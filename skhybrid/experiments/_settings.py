@@ -76,9 +76,28 @@ class ExperimentSettings:
         )
 
     def with_seed(self, seed):
+        """The same settings with another seed.
+
+        Parameters
+        ----------
+        seed : int
+            Seed of the data and the models.
+
+        Returns
+        -------
+        settings : ExperimentSettings
+            A copy with ``seed``.
+        """
         return replace(self, seed=seed)
 
     def to_dict(self):
+        """The settings as a JSON-ready dict.
+
+        Returns
+        -------
+        settings : dict
+            Every field, tuples as lists.
+        """
         out = asdict(self)
         out["dense_layers"] = list(self.dense_layers)
         return out

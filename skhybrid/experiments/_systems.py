@@ -32,14 +32,43 @@ class System:
     ensemble_physics = "physics"
 
     def make_splits(self, settings):
-        """Return ``{"train": Bunch, "interpolation": Bunch, ...}`` (test splits)."""
+        """Simulate the system's training and test splits.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            Sizes and seed.
+
+        Returns
+        -------
+        splits : dict of str to Bunch
+            ``{"train": Bunch, "interpolation": Bunch, ...}``.
+        """
         raise NotImplementedError
 
     def physics(self, settings):
-        """Return ``{label: unfitted domain model}``."""
+        """The system's physics models, unfitted.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            Sizes and seed.
+
+        Returns
+        -------
+        physics : dict of str to DomainModel
+            ``{label: unfitted domain model}``.
+        """
         raise NotImplementedError
 
     def split_descriptions(self):
+        """What each split of the system holds, in words.
+
+        Returns
+        -------
+        descriptions : dict of str to str
+            ``{split: description}``.
+        """
         return {}
 
 

@@ -6,6 +6,7 @@ estimators live here.
 
 from skhybrid.losses._ljung_box import (
     autocorrelation,
+    autocovariance_norm,
     ljung_box,
     weighted_autocorrelations,
 )
@@ -21,6 +22,7 @@ from skhybrid.losses.base import (
 __all__ = [
     "OBJECTIVES",
     "autocorrelation",
+    "autocovariance_norm",
     "check_objective",
     "ljung_box",
     "mse",

@@ -9,7 +9,12 @@ from numbers import Integral
 
 from skhybrid.utils._array_api import get_namespace, is_torch
 
-__all__ = ["autocorrelation", "ljung_box", "weighted_autocorrelations"]
+__all__ = [
+    "autocorrelation",
+    "autocovariance_norm",
+    "ljung_box",
+    "weighted_autocorrelations",
+]
 
 # Small primes that FFT libraries (pocketfft, MKL) handle fast.
 _FAST_RADICES = (2, 3, 5)
@@ -163,6 +168,7 @@ def weighted_autocorrelations(residuals, lags=20):
     Returns
     -------
     q : ndarray or torch.Tensor of shape (lags,) or (lags, n_outputs)
+        The weighted autocorrelations at lags 1 to ``lags``.
 
     Examples
     --------
@@ -213,7 +219,7 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
 
     See Also
     --------
-    skhybrid.diagnostics.ljung_box_test : the statistic with its p-value.
+    skhybrid.diagnostics.ljung_box_test : The statistic with its p-value.
 
     References
     ----------
@@ -242,3 +248,74 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
     if reduction == "none":
         return per_output
     return xp.sum(per_output)
+
+
+def autocovariance_norm(residuals, lags=20):
+    """Ljung-Box-weighted norm of the autocovariances, in the residuals' units squared.
+
+    ``T = sqrt(sum_{k=1..L} (n + 2) / (n - k) * gamma_k ** 2)`` per output, with
+    ``gamma_k = (1/n) sum_t x_t x_{t+k}`` the (uncentred) autocovariance of the
+    series. For a zero-mean series it equals ``gamma_0 * sqrt(Q / n)``: the
+    Ljung-Box statistic ``Q`` carried back to the scale of the residual. Unlike
+    ``Q`` it is not normalised by the residual's own variance, so it cannot be
+    lowered by adding noise: for independent zero-mean white noise ``e`` the
+    autocovariances of ``r + e`` have exactly the expectation of those of ``r``,
+    and the norm is convex, so ``E[T(r + e)] >= T(r)`` (Jensen). (Demeaning would
+    bias the noise's autocovariances by ``-var(e) / n`` and break that; uncentred,
+    a constant offset counts as correlation at every lag, so the objective also
+    pulls the residual's mean to zero.) It is in the units of a mean square, so it
+    adds to one without a scale-dependent weight.
+
+    Parameters
+    ----------
+    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+        The series, in time order.
+    lags : int, default=20
+        Number of lags ``L``; must be smaller than ``n_samples``.
+
+    Returns
+    -------
+    T : ndarray or torch.Tensor of shape () or (n_outputs,)
+        The norm of each output (a 0-d array for 1-D input); differentiable in
+        torch (a zero norm has a zero gradient).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.losses import autocovariance_norm, ljung_box
+    >>> x = np.random.default_rng(0).standard_normal(500)
+    >>> x -= x.mean()
+    >>> T = autocovariance_norm(x, lags=10)
+    >>> bool(np.isclose(T, x.var() * np.sqrt(ljung_box(x, lags=10) / 500)))
+    True
+    >>> bool(np.isclose(autocovariance_norm(10 * x, lags=10), 100 * T))
+    True
+    """
+    xp = get_namespace(residuals)
+    _check_series(residuals, lags, xp)
+    scale = xp.max(xp.abs(residuals), axis=0, keepdims=True)
+    if is_torch(xp):
+        scale = scale.detach()
+    if not bool(xp.all(xp.isfinite(scale))):
+        raise ValueError(
+            "residuals contain NaN or infinite values; the autocovariance norm is "
+            "undefined for them."
+        )
+    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
+    scaled = residuals / scale
+    n = residuals.shape[0]
+    acov = _autocovariance(scaled, lags, xp)[1:, ...] / n
+    k = xp.arange(1, lags + 1, dtype=residuals.dtype)
+    if is_torch(xp):
+        k = k.to(residuals.device)
+    weights = (n + 2.0) / (n - k)
+    if residuals.ndim == 2:
+        weights = weights[:, None]
+    squared = xp.sum(weights * acov**2, axis=0)
+    # sqrt has an infinite slope at 0: a tiny floor keeps the gradient finite
+    # without changing the value measurably (relative 1e-12 of the variance).
+    floor = 1e-24 * xp.mean(scaled**2, axis=0) ** 2
+    if is_torch(xp):
+        floor = floor.detach()
+    norm = xp.sqrt(squared + floor + 1e-300)
+    return norm * xp.reshape(scale, norm.shape) ** 2

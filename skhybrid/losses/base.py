@@ -10,19 +10,35 @@ domain fit and a gradient-trained network minimise the same thing:
 With residuals ``r`` of shape ``(n, n_outputs)``:
 
 - ``"mse"``: ``mean(r ** 2)`` over all samples and outputs (Eq. 5 up to a factor);
-- ``"ljung_box"``: ``Q``, the Ljung-Box statistic summed over outputs (Eq. 7). It is
-  invariant to the offset and the scale of the residuals, so alone it does not pull a
-  model towards the data: use it after a stage that already fits, or combined;
-- ``"mse+ljung_box"``: ``mse + ljung_box_weight * mean_j(var_j * Q_j / n)``, with
-  ``var_j`` and ``Q_j`` the variance and the Ljung-Box statistic of output ``j``.
-  ``Q / n`` is close to ``sum_k rho_k ** 2``, the share of the residual variance that
-  its autocorrelation explains, so the second term is in the units of the first and
-  the weight means the same whatever the scale of the data.
+- ``"ljung_box"``: ``mean_j T_j``, the Ljung-Box-weighted norm of each output's
+  autocovariances (:func:`~skhybrid.losses.autocovariance_norm`),
+  ``T = sqrt(sum_k (n + 2) / (n - k) * gamma_k ** 2) = gamma_0 * sqrt(Q / n)``: the
+  Ljung-Box statistic carried back to the residual's scale. It is invariant to the
+  residual's offset, so alone it does not pull a model towards the data's mean;
+- ``"mse+ljung_box"``: ``mse + ljung_box_weight * mean_j T_j``. Both terms are in
+  the units of a mean square, so the weight means the same at any scale;
+- ``"ljung_box_q"``: ``Q``, the paper's statistic itself summed over outputs
+  (Eq. 7), kept to reproduce the paper. **It rewards noise**: ``Q`` is normalised
+  by the residual's variance, so a model lowers it by adding noise that is
+  independent of everything (the pure objective made a residual "white" by making
+  it 8.6 times larger). Do not use it to fit a model you will use.
+
+The Ljung-Box objectives cannot buy whiteness with noise: for any residual ``r`` and
+independent white noise ``e``, the expected objective of ``r + e`` is not below the
+objective of ``r`` (autocovariances of ``r + e`` have the expectation of those of
+``r`` and the norm is convex; the MSE grows by the noise's variance). The earlier
+``"mse+ljung_box"``, ``mse + w * mean_j(var_j * Q_j / n)``, divided by the
+residual's own variance and therefore fell when noise was added to a strongly
+autocorrelated residual; see ``docs/losses.md``.
 
 Objectives with a Ljung-Box term need residuals in time order.
 """
 
-from skhybrid.losses._ljung_box import ljung_box, weighted_autocorrelations
+from skhybrid.losses._ljung_box import (
+    autocovariance_norm,
+    ljung_box,
+    weighted_autocorrelations,
+)
 from skhybrid.utils._array_api import get_namespace
 
 __all__ = [
@@ -34,11 +50,22 @@ __all__ = [
     "objective_value",
 ]
 
-OBJECTIVES = ("mse", "ljung_box", "mse+ljung_box")
+OBJECTIVES = ("mse", "ljung_box", "mse+ljung_box", "ljung_box_q")
 
 
 def check_objective(objective):
-    """Raise a ValueError unless ``objective`` is one of :data:`OBJECTIVES`."""
+    """Raise a ValueError unless ``objective`` is one of :data:`OBJECTIVES`.
+
+    Parameters
+    ----------
+    objective : str
+        The objective's name.
+
+    Returns
+    -------
+    objective : str
+        ``objective`` itself, when it is valid.
+    """
     if objective not in OBJECTIVES:
         raise ValueError(
             f"objective must be one of {OBJECTIVES}; got objective={objective!r}."
@@ -47,12 +74,34 @@ def check_objective(objective):
 
 
 def needs_time_order(objective):
-    """Whether ``objective`` depends on the order of the rows (has a Ljung-Box term)."""
+    """Whether ``objective`` depends on the order of the rows (has a Ljung-Box term).
+
+    Parameters
+    ----------
+    objective : str
+        One of :data:`OBJECTIVES`.
+
+    Returns
+    -------
+    time_ordered : bool
+        True when the objective holds a Ljung-Box term, which needs rows in time
+        order.
+    """
     return "ljung_box" in check_objective(objective)
 
 
 def mse(residuals):
     """Mean squared residual over all samples and outputs.
+
+    Parameters
+    ----------
+    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+        The residuals.
+
+    Returns
+    -------
+    mse : float or torch.Tensor
+        Their mean square (a 0-d tensor for torch input, differentiable).
 
     Examples
     --------
@@ -76,7 +125,7 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
     ----------
     residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
         Residuals ``y - y_pred`` in time order.
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
         The objective (see the module docstring).
     lags : int, default=20
         Ljung-Box lags ``L``.
@@ -87,7 +136,8 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
     -------
     vector : 1-D ndarray or torch.Tensor
         Scaled residuals (``r / sqrt(n * n_outputs)``) for the MSE part followed by
-        the weighted autocorrelations of each output for the Ljung-Box part.
+        ``sqrt(weight * T_j / n_outputs)`` for each output's autocovariance norm
+        (or the weighted autocorrelations for ``"ljung_box_q"``).
 
     Examples
     --------
@@ -102,16 +152,14 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
     check_objective(objective)
     xp = get_namespace(residuals)
     r = _as_2d(residuals)
-    n = r.shape[0]
     parts = []
     if objective in ("mse", "mse+ljung_box"):
         parts.append(xp.reshape(r, (-1,)) / (r.shape[0] * r.shape[1]) ** 0.5)
-    if objective == "ljung_box":
+    if objective == "ljung_box_q":
         parts.append(xp.reshape(weighted_autocorrelations(r, lags), (-1,)))
-    elif objective == "mse+ljung_box":
-        scale = xp.sqrt(ljung_box_weight * _variance(r, xp) / (n * r.shape[1]))
-        q = weighted_autocorrelations(r, lags) * scale
-        parts.append(xp.reshape(q, (-1,)))
+    elif objective in ("ljung_box", "mse+ljung_box"):
+        weight = ljung_box_weight if objective == "mse+ljung_box" else 1.0
+        parts.append(xp.sqrt(weight * autocovariance_norm(r, lags) / r.shape[1]))
     return parts[0] if len(parts) == 1 else xp.concat(parts)
 
 
@@ -122,7 +170,7 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
     ----------
     residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
         Residuals ``y - y_pred`` in time order.
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
         The objective (see the module docstring).
     lags : int, default=20
         Ljung-Box lags ``L``.
@@ -144,16 +192,12 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
     """
     check_objective(objective)
     r = _as_2d(residuals)
-    n = r.shape[0]
     if objective == "mse":
         return mse(r)
-    if objective == "ljung_box":
+    if objective == "ljung_box_q":
         return ljung_box(r, lags)
     xp = get_namespace(residuals)
-    per_output = ljung_box(r, lags, reduction="none") * _variance(r, xp) / n
-    return mse(r) + ljung_box_weight * xp.mean(per_output)
-
-
-def _variance(r, xp):
-    """Per-column variance (1/n), shape (n_outputs,)."""
-    return xp.mean((r - xp.mean(r, axis=0)) ** 2, axis=0)
+    term = xp.mean(autocovariance_norm(r, lags))
+    if objective == "ljung_box":
+        return term
+    return mse(r) + ljung_box_weight * term

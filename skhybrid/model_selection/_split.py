@@ -49,13 +49,13 @@ def _check_features(features, n_features, name="features"):
     if cols.dtype == bool:
         if cols.shape != (n_features,):
             raise ValueError(
-                f"{name} is a boolean mask of shape {cols.shape}; expected "
+                f"{name} is a bool mask of shape {cols.shape}; expected "
                 f"({n_features},) to match the columns of X."
             )
         cols = np.flatnonzero(cols)
     elif not np.issubdtype(cols.dtype, np.integer) or cols.ndim != 1:
         raise TypeError(
-            f"{name} must be an int, a sequence of ints or a boolean mask; got "
+            f"{name} must be an int, a sequence of ints or a bool mask; got "
             f"{features!r}."
         )
     if cols.size == 0 or np.any((cols < -n_features) | (cols >= n_features)):
@@ -200,7 +200,7 @@ def interpolation_extrapolation_split(
     direction : array-like of shape (n_hull_features,), default=None
         Direction for ``strategy="direction"``, in standardised features;
         ``None`` draws one from ``random_state``.
-    features : int, sequence of int, boolean mask or None, default=None
+    features : int, sequence of int, bool mask or None, default=None
         Columns of ``X`` spanning the hull (say, the inputs of a window);
         ``None`` uses all columns.
     groups : array-like of shape (n_samples,), default=None
@@ -399,12 +399,11 @@ class ConvexHullSplit(BaseCrossValidator):
         groups : array-like of shape (n_samples,), default=None
             Trajectory labels; a trajectory is never divided between folds.
 
-        Yields
-        ------
-        train : ndarray
-            Training indices.
-        test : ndarray
-            Test indices.
+        Returns
+        -------
+        splits : generator of tuple of (ndarray, ndarray)
+            The training and test indices of each fold. The arguments are
+            validated when ``split`` is called, before the first fold.
         """
         self._check_params()
         return super().split(X, y, groups)
@@ -501,7 +500,7 @@ class ExtrapolationSplit(BaseCrossValidator):
 
     Parameters
     ----------
-    features : int, sequence of int or boolean mask, default=-1
+    features : int, sequence of int or bool mask, default=-1
         Columns of ``X`` whose range is limited in training.
     bounds : tuple (low, high) or sequence of such tuples, default=(-1.0, 1.0)
         Training range: one pair for every chosen feature, or one pair per
@@ -562,12 +561,11 @@ class ExtrapolationSplit(BaseCrossValidator):
         groups : array-like of shape (n_samples,), default=None
             Trajectory labels; a trajectory is never divided between folds.
 
-        Yields
-        ------
-        train : ndarray
-            Training indices.
-        test : ndarray
-            Test indices.
+        Returns
+        -------
+        splits : generator of tuple of (ndarray, ndarray)
+            The training and test indices of each fold. The arguments are
+            validated when ``split`` is called, before the first fold.
         """
         X, y, groups = indexable(X, y, groups)
         X = check_array(X, dtype=np.float64, input_name="X")

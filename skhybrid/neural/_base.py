@@ -1,6 +1,5 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
-import copy
 import warnings
 from numbers import Integral, Real
 
@@ -33,7 +32,96 @@ __all__ = ["BaseNeuralRegressor"]
 
 # Rows per forward pass at prediction time: bounds memory, not results (the
 # module runs in eval mode and in float64, see _forward).
-_PREDICT_CHUNK = 65536
+_PREDICT_CHUNK = 8192
+
+
+#: The training-protocol parameters every neural estimator shares, written once
+#: and filled into each class docstring by :func:`fill_training_docstring`.
+TRAINING_PARAMETERS_DOC = """\
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        Training objective on the standardised residuals (see
+        :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
+        the rows are in time order and trains on contiguous blocks of rows, never
+        on shuffled rows.
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    lr : float, default=0.01
+        Initial learning rate of Adam.
+    max_epochs : int, default=200
+        Most passes over the training rows.
+    batch_size : int, default=512
+        Rows per mini-batch.
+    validation_fraction : float, default=0.2
+        Fraction of the rows, taken from the END (the most recent rows), whose
+        loss drives the learning-rate schedule, early stopping and the choice of
+        the best weights. 0 trains on all rows and monitors the training loss.
+    target_scaling : {"per_output", "shared"}, default="per_output"
+        How targets are standardised for training. ``"per_output"`` divides each
+        output by its own standard deviation, so every output counts the same (the
+        usual choice for states in different units). ``"shared"`` divides all
+        outputs by one scale (the root mean square of their standard deviations),
+        so the loss weighs errors in the outputs' own units, like a physics
+        stage's least squares: the choice for a residual stage, where outputs the
+        physics already explains hold only noise that per-output scaling would
+        blow up to unit variance.
+    patience : int or None, default=30
+        Epochs without improvement of the monitored loss before training stops
+        (early stopping); ``None`` trains for ``max_epochs``.
+    lr_patience : int, default=10
+        Epochs without improvement before the learning rate is reduced.
+    lr_factor : float, default=0.5
+        Factor applied to the learning rate on a plateau.
+    callbacks : list of skorch callbacks or None, default=None
+        Extra :mod:`skorch.callbacks`, run after the built-in ones.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initial weights and the shuffling, without touching torch's
+        global random state. The same seed gives bitwise-identical predictions
+        on CPU.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the network trains and predicts.
+    verbose : int, default=0
+        0 is silent; 1 or more shows a progress bar and skorch's table of epochs."""
+
+#: The fitted attributes every neural estimator shares.
+FITTED_ATTRIBUTES_DOC = """\
+    net_ : skorch.NeuralNetRegressor
+        The trained skorch net (its ``module_`` in eval mode).
+    history_ : skorch.History
+        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
+        split, ``history_[:, "valid_loss"]`` (standardised units).
+    n_epochs_ : int
+        Epochs completed.
+    best_epoch_ : int
+        Epoch (1-based) whose weights were kept: the lowest monitored loss.
+    n_features_in_ : int
+        Number of columns of ``X`` seen in ``fit``.
+    n_outputs_ : int
+        Number of target columns.
+    x_mean_, x_scale_ : ndarray of shape (n_features,)
+        Mean and scale used to standardise ``X``.
+    y_mean_, y_scale_ : ndarray of shape (n_outputs,)
+        Mean and scale used to standardise ``y``."""
+
+
+def fill_training_docstring(doc):
+    """Fill the shared parameter and attribute sections into a class docstring.
+
+    Parameters
+    ----------
+    doc : str
+        A docstring holding the lines ``    %(training_parameters)s`` and
+        ``    %(fitted_attributes)s``.
+
+    Returns
+    -------
+    doc : str
+        The docstring with both sections written out.
+    """
+    return doc.replace("    %(training_parameters)s", TRAINING_PARAMETERS_DOC).replace(
+        "    %(fitted_attributes)s", FITTED_ATTRIBUTES_DOC
+    )
 
 
 class _Net(NeuralNetRegressor):
@@ -404,25 +492,42 @@ class BaseNeuralRegressor(
             )
         return self
 
-    def _forward(self, module, Xs):
-        """Run a module in eval mode on standardised float64 rows, in chunks.
+    def _forward(self, module, X, mean, scale):
+        """Run a module in eval mode on ``(X - mean) / scale``, in float64 chunks.
 
-        The computation runs in float64 on a float64 copy of the (float32-trained)
-        weights: float32 matrix products may round differently for different
-        batch sizes, which would make a row's prediction depend on the other rows
-        predicted with it.
+        The computation runs in float64 with float64 copies of the (float32-trained)
+        weights passed through :func:`torch.func.functional_call`: float32 matrix
+        products may round differently for different batch sizes, which would make
+        a row's prediction depend on the other rows predicted with it. The module
+        itself is neither copied nor changed, rows are standardised chunk by chunk
+        and the output is written into one preallocated array, so the memory
+        beyond the input and the output stays a few chunks' worth.
         """
-        module = copy.deepcopy(module).double().eval()
-        out = []
-        with torch.no_grad():
-            for start in range(0, Xs.shape[0], _PREDICT_CHUNK):
-                chunk = torch.as_tensor(
-                    np.ascontiguousarray(Xs[start : start + _PREDICT_CHUNK]),
-                    dtype=torch.float64,
-                    device=self.device,
-                )
-                out.append(module(chunk).cpu().numpy())
-        return np.concatenate(out)
+        from torch.func import functional_call
+
+        state = {
+            name: (t.detach().to(torch.float64) if t.is_floating_point() else t)
+            for name, t in (*module.named_parameters(), *module.named_buffers())
+        }
+        training = module.training
+        module.eval()
+        out = None
+        try:
+            with torch.no_grad():
+                for start in range(0, X.shape[0], _PREDICT_CHUNK):
+                    stop = start + _PREDICT_CHUNK
+                    chunk = torch.as_tensor(
+                        (X[start:stop] - mean) / scale,
+                        dtype=torch.float64,
+                        device=self.device,
+                    )
+                    part = functional_call(module, state, (chunk,)).cpu().numpy()
+                    if out is None:
+                        out = np.empty((X.shape[0], part.shape[1]))
+                    out[start:stop] = part
+        finally:
+            module.train(training)
+        return out
 
     def predict(self, X):
         """Predict with the trained network.
@@ -440,6 +545,7 @@ class BaseNeuralRegressor(
         """
         check_is_fitted(self)
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        Xs = (X - self.x_mean_) / self.x_scale_
-        y_pred = self._forward(self._fitted_module(), Xs) * self.y_scale_ + self.y_mean_
+        y_pred = self._forward(self._fitted_module(), X, self.x_mean_, self.x_scale_)
+        y_pred *= self.y_scale_
+        y_pred += self.y_mean_
         return y_pred[:, 0] if self._y_1d else y_pred

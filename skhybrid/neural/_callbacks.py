@@ -104,8 +104,8 @@ def check_divergence(loss, first, *, name, epoch, lr):
         raise TrainingDivergedError(
             f"the {name} became {loss} at epoch {epoch} with lr={lr}; {advice}"
         )
-    reference = 1.0 if first is None or not math.isfinite(first) else max(1.0, first)
-    if loss > DIVERGENCE_BOUND or loss > DIVERGENCE_GROWTH * reference:
+    grew = first is not None and loss > DIVERGENCE_GROWTH * max(1.0, first)
+    if loss > DIVERGENCE_BOUND or grew:
         raise TrainingDivergedError(
             f"the {name} grew to {loss:.3g} at epoch {epoch} with lr={lr} (first "
             f"epoch: {first if first is not None else loss:.3g}; losses are on "

@@ -2,7 +2,7 @@
 
 from numbers import Integral
 
-from skhybrid.neural._base import BaseNeuralRegressor
+from skhybrid.neural._base import BaseNeuralRegressor, fill_training_docstring
 from skhybrid.neural._modules import MLPModule
 
 __all__ = ["DenseRegressor"]
@@ -42,66 +42,17 @@ class DenseRegressor(BaseNeuralRegressor):
         units (about 600,000 weights: roughly 0.1 s per epoch of 5,000 rows on
         two CPU cores); a few layers of 32 to 64 units train much faster and often
         suffice for residual stages.
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
-        Training objective on the standardised residuals (see
-        :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
-        the rows are in time order and trains on contiguous blocks of rows, never
-        on shuffled rows.
-    ljung_box_lags : int, default=20
-        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    lr : float, default=0.01
-        Initial learning rate of Adam.
-    max_epochs : int, default=200
-        Most passes over the training rows.
-    batch_size : int, default=512
-        Rows per mini-batch.
-    validation_fraction : float, default=0.2
-        Fraction of the rows, taken from the END (the most recent rows), whose
-        loss drives the learning-rate schedule, early stopping and the choice of
-        the best weights. 0 trains on all rows and monitors the training loss.
-    patience : int or None, default=30
-        Epochs without improvement of the monitored loss before training stops
-        (early stopping); ``None`` trains for ``max_epochs``.
-    lr_patience : int, default=10
-        Epochs without improvement before the learning rate is reduced.
-    lr_factor : float, default=0.5
-        Factor applied to the learning rate on a plateau.
-    callbacks : list of skorch callbacks or None, default=None
-        Extra :mod:`skorch.callbacks`, run after the built-in ones.
-    random_state : int, RandomState instance or None, default=None
-        Seeds the initial weights and the shuffling, without touching torch's
-        global random state. The same seed gives bitwise-identical predictions
-        on CPU.
-    device : {"cpu", "cuda"}, default="cpu"
-        Where the network trains and predicts.
-    verbose : int, default=0
-        0 is silent; 1 or more shows a progress bar and skorch's table of epochs.
+    %(training_parameters)s
+
     Attributes
     ----------
-    net_ : skorch.NeuralNetRegressor
-        The trained skorch net (its ``module_`` in eval mode).
-    history_ : skorch.History
-        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
-        split, ``history_[:, "valid_loss"]`` (standardised units).
-    n_epochs_ : int
-        Epochs completed.
-    best_epoch_ : int
-        Epoch (1-based) whose weights were kept: the lowest monitored loss.
-    n_features_in_ : int
-        Number of columns of ``X`` seen in ``fit``.
-    n_outputs_ : int
-        Number of target columns.
-    x_mean_, x_scale_ : ndarray of shape (n_features,)
-        Mean and scale used to standardise ``X``.
-    y_mean_, y_scale_ : ndarray of shape (n_outputs,)
-        Mean and scale used to standardise ``y``.
+    %(fitted_attributes)s
+
     See Also
     --------
-    RNNRegressor : a recurrent network over the time steps of each row.
-    CyclicRegressor : an encoder trained together with an inverse (decoder) model.
-    sklearn.neural_network.MLPRegressor : scikit-learn's own perceptron.
+    RNNRegressor : A recurrent network over the time steps of each row.
+    CyclicRegressor : An encoder trained together with an inverse (decoder) model.
+    sklearn.neural_network.MLPRegressor : Scikit-learn's own perceptron.
 
     Notes
     -----
@@ -196,3 +147,6 @@ class DenseRegressor(BaseNeuralRegressor):
         """
         sizes = _check_layer_sizes("hidden_layer_sizes", self.hidden_layer_sizes)
         return MLPModule(int(n_features), int(n_outputs), sizes)
+
+
+DenseRegressor.__doc__ = fill_training_docstring(DenseRegressor.__doc__)

@@ -47,7 +47,18 @@ def is_torch(xp):
 
 
 def to_numpy(array):
-    """Return ``array`` (NumPy array or torch tensor, any device) as a NumPy array."""
+    """Return ``array`` (NumPy array or torch tensor, any device) as a NumPy array.
+
+    Parameters
+    ----------
+    array : array-like or torch.Tensor
+        The array; a tensor is detached and copied to the CPU.
+
+    Returns
+    -------
+    array : ndarray
+        The NumPy array.
+    """
     if hasattr(array, "detach"):
         return array.detach().cpu().numpy()
     return np.asarray(array)

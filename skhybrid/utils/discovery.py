@@ -96,6 +96,11 @@ def all_estimators(type_filter=None):
 def all_displays():
     """Return the public Display classes of skhybrid, as sorted (name, class) pairs.
 
+    Returns
+    -------
+    displays : list of tuple of (str, type)
+        Name and class of every Display.
+
     Examples
     --------
     >>> from skhybrid.utils import all_displays
@@ -111,6 +116,11 @@ def all_displays():
 
 def all_functions():
     """Return the public functions of skhybrid, as sorted (name, function) pairs.
+
+    Returns
+    -------
+    functions : list of tuple of (str, callable)
+        Name and function of every public function.
 
     Examples
     --------

@@ -1,0 +1,104 @@
+"""The documentation site builds without warnings and renders with all its images.
+
+Builds the Sphinx site (MyST guides, the API reference, the gallery, which runs
+every example) into a temporary folder with ``-W``, then opens the index and a
+gallery page in headless Chromium and checks that every image loaded.
+"""
+
+import importlib.util
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory, shared_data_dir):
+    for module in ("sphinx", "myst_parser", "sphinx_gallery", "pydata_sphinx_theme"):
+        if importlib.util.find_spec(module) is None:
+            pytest.skip(f"{module} is not installed: pip install -e '.[docs]'")
+    out = tmp_path_factory.mktemp("site")
+    work = tmp_path_factory.mktemp("docs-src")
+    # Build from a copy, so generated pages never land in the working tree.
+    shutil.copytree(
+        ROOT / "docs", work / "docs", ignore=shutil.ignore_patterns("_build")
+    )
+    shutil.copytree(ROOT / "examples", work / "examples")
+    env = {"SKHYBRID_DATA": str(shared_data_dir), "MPLBACKEND": "Agg"}
+    result = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "-q", "-b", "html", "docs", str(out)],
+        cwd=work,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**__import__("os").environ, **env},
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-4000:]
+    return out
+
+
+def test_site_has_api_reference_and_gallery(site):
+    api = (site / "api.html").read_text()
+    for name in ("HybridBoostingRegressor", "simulate", "WindowLayout", "ljung_box"):
+        assert name in api
+    gallery = sorted((site / "auto_examples").glob("plot_*.html"))
+    assert len(gallery) >= 8
+    images = list((site / "_images").glob("sphx_glr_plot_*_001.png"))
+    assert len(images) >= 8, [p.name for p in images]
+
+
+@pytest.mark.parametrize(
+    "page", ["index.html", "simulation.html", "auto_examples/plot_compositions.html"]
+)
+def test_pages_render_with_every_image(site, page, tmp_path):
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no Chromium on this machine (apt-get install chromium)")
+    probe = site / page
+    html = probe.read_text()
+    probe.write_text(
+        html.replace(
+            "</body>",
+            "<script>window.addEventListener('load', () => {"
+            "const imgs = [...document.images];"
+            "const bad = imgs.filter(i => !(i.complete && i.naturalWidth > 0));"
+            "document.body.setAttribute('data-images', imgs.length);"
+            "document.body.setAttribute('data-missing', bad.length);});"
+            "</script></body>",
+        )
+    )
+    out = subprocess.run(
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--no-first-run",
+            f"--user-data-dir={tmp_path / 'profile'}",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            probe.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert 'data-missing="0"' in out.stdout, out.stdout[-2000:]
+    if page != "index.html":
+        assert 'data-images="0"' not in out.stdout

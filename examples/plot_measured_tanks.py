@@ -14,7 +14,7 @@ The data are not shipped: set ``SKHYBRID_DATA`` to the folder holding
 ``cascaded_tanks/dataBenchmark.mat`` (default: ``../shared/data`` beside the
 repository). Run it with::
 
-    python examples/plot_measured_benchmark.py
+    python examples/plot_measured_tanks.py
 
 The full model zoo runs with ``skhybrid run cascaded-tanks --data DIR``.
 """
@@ -34,8 +34,10 @@ try:
     data = load_cascaded_tanks(data_dir)
 except FileNotFoundError as exc:
     print(f"skipped: the benchmark data is not there ({exc})")
-    print("set SKHYBRID_DATA to the folder holding cascaded_tanks/dataBenchmark.mat")
     data = None
+    fig, ax = plt.subplots(figsize=(6, 1.5))
+    ax.text(0.5, 0.5, "set SKHYBRID_DATA to run this example", ha="center")
+    ax.set_axis_off()
 
 if data is not None:
     train, test = data.splits["train"], data.splits["test"]

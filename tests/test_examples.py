@@ -20,7 +20,7 @@ def test_example_runs_and_draws(path, monkeypatch, request):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    if path.stem == "plot_measured_benchmark":  # reads the measured data
+    if path.stem.startswith("plot_measured"):  # reads the measured data
         monkeypatch.setenv(
             "SKHYBRID_DATA", str(request.getfixturevalue("shared_data_dir"))
         )

@@ -28,8 +28,9 @@ import numpy as np
 from skhybrid.datasets import load_cascaded_tanks
 from skhybrid.experiments import MEASURED_SYSTEMS, PUBLISHED
 
-root = Path(__file__).resolve().parents[1]
-data_dir = Path(os.environ.get("SKHYBRID_DATA", root.parent / "shared" / "data"))
+# By default ../shared/data from where you run it (the repository's root).
+default = Path.cwd() / ".." / "shared" / "data"
+data_dir = Path(os.environ.get("SKHYBRID_DATA", default))
 try:
     data = load_cascaded_tanks(data_dir)
 except FileNotFoundError as exc:

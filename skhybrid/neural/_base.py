@@ -237,6 +237,9 @@ class BaseNeuralRegressor(
         stage's least squares: the choice for a residual stage, where outputs the
         physics already explains hold only noise that per-output scaling would
         blow up to unit variance.
+    horizon : int, default=1
+        Steps of the training loss: 1 trains one step ahead, ``T > 1`` by
+        simulation error over ``T`` steps (see the subclasses).
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops;
         ``None`` trains for ``max_epochs`` (the best weights are still restored).

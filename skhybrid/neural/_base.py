@@ -17,7 +17,8 @@ from torch.optim.lr_scheduler import ReduceLROnPlateau
 
 from skhybrid.losses import OBJECTIVES, needs_time_order
 from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
-from skhybrid.neural._modules import ObjectiveLoss
+from skhybrid.neural._modules import ObjectiveLoss, RolloutModule
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -66,6 +67,16 @@ TRAINING_PARAMETERS_DOC = """\
         stage's least squares: the choice for a residual stage, where outputs the
         physics already explains hold only noise that per-output scaling would
         blow up to unit variance.
+    horizon : int, default=1
+        Steps of the training loss. 1 trains one step ahead (the paper's
+        protocol). ``T > 1`` trains by simulation error: from every row that
+        starts ``T`` consecutive rows of one experiment (rows that continue each
+        other, found in the data; see
+        :meth:`skhybrid.preprocessing.WindowLayout.horizon_starts`), the network
+        is rolled ``T`` steps, feeding back its own predictions with the measured
+        inputs, and the loss is the MSE over the whole horizon (truncated
+        back-propagation through time). Needs time-ordered windows and
+        ``objective="mse"``; ``CyclicRegressor`` supports 1 only.
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops
         (early stopping); ``None`` trains for ``max_epochs``.
@@ -226,6 +237,9 @@ class BaseNeuralRegressor(
         stage's least squares: the choice for a residual stage, where outputs the
         physics already explains hold only noise that per-output scaling would
         blow up to unit variance.
+    horizon : int, default=1
+        Steps of the training loss: 1 trains one step ahead, ``T > 1`` by
+        simulation error over ``T`` steps (see the subclasses).
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops;
         ``None`` trains for ``max_epochs`` (the best weights are still restored).
@@ -262,6 +276,7 @@ class BaseNeuralRegressor(
         "random_state": ["random_state"],
         "device": [StrOptions({"cpu", "cuda"})],
         "target_scaling": [StrOptions({"per_output", "shared"})],
+        "horizon": [Interval(Integral, 1, None, closed="left")],
         "verbose": ["verbose"],
     }
 
@@ -276,6 +291,7 @@ class BaseNeuralRegressor(
         batch_size=512,
         validation_fraction=0.2,
         target_scaling="per_output",
+        horizon=1,
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -292,6 +308,7 @@ class BaseNeuralRegressor(
         self.batch_size = batch_size
         self.validation_fraction = validation_fraction
         self.target_scaling = target_scaling
+        self.horizon = horizon
         self.patience = patience
         self.lr_patience = lr_patience
         self.lr_factor = lr_factor
@@ -322,7 +339,65 @@ class BaseNeuralRegressor(
 
     def _fitted_module(self):
         """The fitted module that maps X to y."""
-        return self.net_.module_
+        module = self.net_.module_
+        return module.net if isinstance(module, RolloutModule) else module
+
+    def _horizon_data(self, X, y, Xt, yt, n_valid):
+        """Start windows, future inputs and targets for ``horizon``-step training.
+
+        The sub-sequences are found in the rows themselves
+        (:meth:`~skhybrid.preprocessing.WindowLayout.horizon_starts`): a start is
+        a row from which ``horizon`` rows follow that each continue the one before.
+        A start whose horizon reaches into the validation tail of the rows
+        validates; the others train.
+        """
+        if self.objective != "mse":
+            raise ValueError(
+                f"horizon={self.horizon} trains on simulated sub-sequences with "
+                f"objective='mse' only; got objective={self.objective!r}."
+            )
+        n_steps = self.get_params(deep=False).get("n_steps")
+        if n_steps is None:
+            # A network without n_steps (DenseRegressor) reads a flat row: find
+            # the window length under which the rows continue each other most.
+            candidates = [
+                k
+                for k in range(1, X.shape[1] + 1)
+                if X.shape[1] % k == 0 and X.shape[1] // k >= y.shape[1]
+            ]
+            found = {
+                k: WindowLayout.from_shapes(X.shape[1], y.shape[1], n_steps=k)
+                for k in candidates
+            }
+            found = {
+                k: (lay, lay.horizon_starts(X, y, self.horizon))
+                for k, lay in found.items()
+            }
+            n_steps = max(found, key=lambda k: len(found[k][1]))
+            layout, starts = found[n_steps]
+        else:
+            layout = WindowLayout.from_shapes(X.shape[1], y.shape[1], n_steps=n_steps)
+            starts = layout.horizon_starts(X, y, self.horizon)
+        if len(starts) == 0:
+            raise ValueError(
+                f"horizon={self.horizon}: no {self.horizon} consecutive rows of X "
+                "continue each other (row i + 1 is row i shifted by one step with "
+                f"y[i] as its newest state, in a layout of n_steps={n_steps}); pass "
+                "time-ordered windows (skhybrid.preprocessing.make_windows) or "
+                "horizon=1."
+            )
+        h = self.horizon
+        future = starts[:, None] + np.arange(1, h)[None, :]
+        newest = X[:, X.shape[1] - layout.step_width :][:, layout.n_states :]
+        U = newest[future].reshape(len(starts), -1)
+        Z = torch.cat([Xt[starts], self._to_tensor(U)], dim=1)
+        targets = yt[starts[:, None] + np.arange(h)[None, :]].reshape(len(starts), -1)
+        stop = X.shape[0] - n_valid
+        n_valid_starts = int(np.sum(starts + h - 1 >= stop)) if n_valid else 0
+        if n_valid_starts < 2 or len(starts) - n_valid_starts < 2:
+            n_valid_starts = 0
+        rollout = (layout, h, self.x_mean_, self.x_scale_, self.y_mean_, self.y_scale_)
+        return rollout, Z, targets, n_valid_starts
 
     # -- helpers -------------------------------------------------------------------
     def _check_device(self):
@@ -411,8 +486,12 @@ class BaseNeuralRegressor(
 
         n_valid = self._split(n_samples, min_rows)
         monitor = "valid_loss" if n_valid else "train_loss"
+        rollout = None
+        if self.horizon > 1:
+            rollout, Xt, yt, n_valid = self._horizon_data(X, y2, Xt, yt, n_valid)
+            monitor = "valid_loss" if n_valid else "train_loss"
         if n_valid:
-            stop = n_samples - n_valid
+            stop = Xt.shape[0] - n_valid
             train_split = predefined_split(Dataset(Xt[stop:], yt[stop:]))
             Xt, yt = Xt[:stop], yt[:stop]
             # A Ljung-Box validation loss is the statistic of the whole stretch.
@@ -452,6 +531,8 @@ class BaseNeuralRegressor(
         with torch.random.fork_rng(devices=self._rng_devices()):
             torch.manual_seed(seed)
             module = self._training_module(self._make_module(n_features, n_outputs))
+            if rollout is not None:
+                module = RolloutModule(module, *rollout)
             net = _Net(
                 module=module,
                 criterion=criterion,

@@ -97,6 +97,7 @@ class CyclicRegressor(BaseNeuralRegressor):
         batch_size=512,
         validation_fraction=0.2,
         target_scaling="per_output",
+        horizon=1,
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -114,6 +115,7 @@ class CyclicRegressor(BaseNeuralRegressor):
             batch_size=batch_size,
             validation_fraction=validation_fraction,
             target_scaling=target_scaling,
+            horizon=horizon,
             patience=patience,
             lr_patience=lr_patience,
             lr_factor=lr_factor,
@@ -157,6 +159,11 @@ class CyclicRegressor(BaseNeuralRegressor):
         return CyclicModule(int(n_features), int(n_outputs), encoder, decoder)
 
     def _training_module(self, module):
+        if self.horizon > 1:
+            raise ValueError(
+                f"CyclicRegressor trains one step ahead; got horizon={self.horizon}. "
+                "Use DenseRegressor or RNNRegressor for horizon > 1."
+            )
         return CycleTrainingModule(module)
 
     def _criterion(self):

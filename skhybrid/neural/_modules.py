@@ -190,3 +190,56 @@ class CyclicLoss(ObjectiveLoss):
         y_hat, X_rec, X = y_pred
         loss = super().forward(y_hat, y_true)
         return loss + self.cycle_weight * torch.mean((X_rec - X) ** 2)
+
+
+class RolloutModule(nn.Module):
+    """Simulates ``horizon`` steps through a one-step network, for training.
+
+    The input row holds a standardised start window (``n_features`` columns)
+    followed by the raw inputs of the next ``horizon - 1`` steps; the output is
+    the standardised prediction of every step, ``(n, horizon * n_outputs)``. At
+    each step the window moves in raw units (each column of a window is
+    standardised with its own statistics, so shifting standardised values would
+    mix scales): the prediction enters as the newest state, the next input
+    beside it, the oldest step leaves. Gradients flow through the whole horizon
+    (truncated back-propagation through time, as SUBNET and dynoNet train).
+
+    Parameters
+    ----------
+    net : torch.nn.Module
+        The one-step network on standardised rows.
+    layout : skhybrid.preprocessing.WindowLayout
+        The rows' layout.
+    horizon : int
+        Steps simulated from each start.
+    x_mean, x_scale, y_mean, y_scale : ndarray
+        The standardisation of rows and targets.
+    """
+
+    def __init__(self, net, layout, horizon, x_mean, x_scale, y_mean, y_scale):
+        super().__init__()
+        self.net = net
+        self.layout = layout
+        self.horizon = horizon
+        for name, value in (
+            ("x_mean", x_mean),
+            ("x_scale", x_scale),
+            ("y_mean", y_mean),
+            ("y_scale", y_scale),
+        ):
+            self.register_buffer(name, torch.as_tensor(value, dtype=torch.float32))
+
+    def forward(self, Z):
+        n_features = self.layout.n_features
+        X = Z[:, :n_features]
+        U = Z[:, n_features:].reshape(Z.shape[0], self.horizon - 1, -1)
+        preds = []
+        for k in range(self.horizon):
+            pred = self.net(X)
+            preds.append(pred)
+            if k < self.horizon - 1:
+                raw = X * self.x_scale + self.x_mean
+                state = pred * self.y_scale + self.y_mean
+                raw = self.layout.shift(raw, state, U[:, k] if U.shape[2] else None)
+                X = (raw - self.x_mean) / self.x_scale
+        return torch.cat(preds, dim=1)

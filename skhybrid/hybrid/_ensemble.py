@@ -531,9 +531,10 @@ def _batches(n, batch, contiguous, rng):
         edges = np.linspace(0, n, n_blocks + 1).astype(int)
         order = rng.permutation(n_blocks)
         return [slice(int(edges[i]), int(edges[i + 1])) for i in order]
+    # Rows spread evenly over ceil(n / batch) batches (sizes differ by at most
+    # one), as the networks' BatchIterator does: no tiny remainder batch whose one
+    # noisy step per epoch could decide the result.
     perm = rng.permutation(n)
-    out = [perm[i : i + batch] for i in range(0, n, batch)]
-    if len(out) > 1 and out[-1].size < 2:
-        # Batch normalisation needs two rows to train.
-        out[-2] = np.concatenate([out[-2], out.pop()])
-    return out
+    n_batches = max(1, min(-(-n // batch), n // 2))  # batch norm needs 2 rows
+    edges = [(i * n) // n_batches for i in range(n_batches + 1)]
+    return [perm[edges[i] : edges[i + 1]] for i in range(n_batches)]

@@ -190,3 +190,14 @@ def test_decomposition_display_from_ensemble(fitted, data, pyplot):
     X, Y = data
     display = DecompositionDisplay.from_estimator(fitted, X[:100], Y[:100])
     assert {"domain", "neural", "total"} <= set(display.lines_)
+
+
+def test_ensemble_batches_are_of_equal_size():
+    from skhybrid.hybrid._ensemble import _batches
+
+    rng = np.random.default_rng(0)
+    for n, batch in [(3600, 512), (3520, 512), (1000, 999), (7, 2)]:
+        sizes = [len(b) for b in _batches(n, batch, False, rng)]
+        assert sum(sizes) == n and max(sizes) - min(sizes) <= 1 and min(sizes) >= 2
+    rows = np.concatenate(_batches(103, 10, False, rng))
+    np.testing.assert_array_equal(np.sort(rows), np.arange(103))

@@ -18,7 +18,15 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import torch
+
 import skhybrid
+
+# The gallery's networks are small: one torch thread is as fast, and on a busy
+# 2-core machine two threads spin against each other (plot_compositions: 19 s with
+# one thread, 105 s with two, under a load of 10). The test suite does the same
+# (conftest.py).
+torch.set_num_threads(1)
 
 HERE = Path(__file__).resolve().parent
 

@@ -6,11 +6,16 @@ calls, each with one ``predict`` per step). Both give the same paths (checked
 to 1e-10); the ratio is the speed-up of batching. Target: at least 10x.
 
 Run: ``python benchmarks/bench_simulate.py`` (about a minute on 2 cores).
+Torch runs on one CPU thread (``--threads N`` to change it): on a busy 2-core
+machine two intra-op threads made a 64-row forward pass of a (64, 64) network
+25 times slower (53 ms against 2 ms), which hides the effect being measured.
 """
 
+import argparse
 import time
 
 import numpy as np
+import torch
 
 from skhybrid.domain import LinearStateSpaceModel
 from skhybrid.hybrid import HybridBoostingRegressor
@@ -41,6 +46,9 @@ def time_it(fn, repeat=3):
 
 
 def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--threads", type=int, default=1, help="torch CPU threads")
+    torch.set_num_threads(parser.parse_args().threads)
     cases = [
         ("LinearStateSpaceModel", LinearStateSpaceModel(), 1),
         ("DenseRegressor", DenseRegressor((64, 64), max_epochs=5, random_state=0), 1),
@@ -56,7 +64,10 @@ def main():
             1,
         ),
     ]
-    print(f"{N_TRAJ} trajectories of {N_TIMES} steps, 2 states, 1 input")
+    print(
+        f"{N_TRAJ} trajectories of {N_TIMES} steps, 2 states, 1 input; "
+        f"torch threads: {torch.get_num_threads()}"
+    )
     print(f"{'model':<28}{'batched [s]':>12}{'separate [s]':>14}{'ratio':>8}")
     ratios = []
     for name, est, n_steps in cases:

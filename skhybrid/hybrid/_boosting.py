@@ -119,6 +119,20 @@ class HybridBoostingRegressor(
     autoregressive process per output, order chosen by BIC, statsmodels). It gives
     :meth:`predict` a ``return_std`` and enables :meth:`sample`.
 
+    **Free-run simulation.** :meth:`simulate` runs the booster as a whole: at each
+    time step the window holds the simulated history, and every stage reads the
+    input built from it exactly as above. The residual slots are therefore
+    defined over the horizon as follows. Inside the measured initial window they
+    are the true residuals (a measured state minus the earlier stages'
+    prediction of it). Beyond it the true state is unknown and the window holds
+    simulated states, so ``res_p`` is the *simulated* state of step ``p + 1``
+    minus the earlier stages' prediction: the later stages' own contribution
+    (exactly so for stages that read only the newest step), with no measurement
+    noise in it, which is the residual's conditional mean under the model; in
+    sample paths (``n_samples``) it also holds the noise model's draw fed back
+    at that step. No extra convention is needed: the same rows a one-step
+    prediction reads are built from the simulated history.
+
     **Cyclic method.** A :class:`~skhybrid.neural.CyclicRegressor` stage (an
     encoder trained with a decoder that reconstructs its input) makes this the
     paper's cyclic composition; :meth:`inverse_predict` exposes its decoder as an

@@ -21,6 +21,7 @@ matplotlib.use("Agg")
 import torch
 
 import skhybrid
+from skhybrid.utils.discovery import PUBLIC_MODULES
 
 # The gallery's networks are small: one torch thread is as fast, and on a busy
 # 2-core machine two threads spin against each other (plot_compositions: 19 s with
@@ -70,21 +71,6 @@ sphinx_gallery_conf = {
     "within_subsection_order": "FileNameSortKey",
 }
 
-SUBPACKAGES = [
-    "domain",
-    "neural",
-    "hybrid",
-    "simulation",
-    "losses",
-    "model_selection",
-    "diagnostics",
-    "datasets",
-    "preprocessing",
-    "experiments",
-    "exceptions",
-    "utils",
-]
-
 
 def _write_api_reference():
     """api.rst: one autosummary table per subpackage, from its ``__all__``."""
@@ -96,7 +82,7 @@ def _write_api_reference():
         "each subpackage's ``__all__``).",
         "",
     ]
-    for name in SUBPACKAGES:
+    for name in PUBLIC_MODULES:
         module = importlib.import_module(f"skhybrid.{name}")
         title = f":mod:`skhybrid.{name}`"
         summary = (module.__doc__ or "").strip().splitlines()[0]

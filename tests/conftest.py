@@ -1,6 +1,8 @@
-"""Shared fixtures: seeds, the Agg backend and the real-data folder."""
+"""Shared fixtures: seeds, the Agg backend, the real-data folder, headless Chromium."""
 
 import os
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -37,3 +39,47 @@ def shared_data_dir():
     if not DATA_DIR.is_dir():
         pytest.skip(f"the shared benchmark data is not present at {DATA_DIR}")
     return DATA_DIR
+
+
+@pytest.fixture
+def rendered_dom(tmp_path):
+    """A function that opens an HTML page in headless Chromium and returns its DOM.
+
+    Skips the test where no Chromium is installed (``apt-get install chromium``).
+    The page is loaded from disk with a fresh profile and 5 s of virtual time, so
+    scripts that run on ``load`` have run when the DOM is dumped.
+    """
+    browser = next(
+        (
+            path
+            for name in ("chromium", "chromium-browser", "google-chrome")
+            if (path := shutil.which(name))
+        ),
+        None,
+    )
+    if browser is None:
+        pytest.skip("no Chromium on this machine (apt-get install chromium)")
+
+    def render(page):
+        out = subprocess.run(
+            [
+                browser,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--no-first-run",
+                f"--user-data-dir={tmp_path / 'profile'}",
+                "--virtual-time-budget=5000",
+                "--dump-dom",
+                page.as_uri(),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+        return out.stdout, out.stderr
+
+    return render

@@ -52,6 +52,28 @@ def _check_series(residuals, lags, xp):
         )
 
 
+def _scaled_by_max(residuals, xp):
+    """Each column divided by its largest magnitude, and the divisors.
+
+    Sums of squares of the result neither under- nor overflow at any scale of the
+    series (1e-200 or 1e200). The divisor is a constant (detached in torch), so
+    gradients of scale-invariant quantities are exact. The maximum propagates NaN
+    and infinity, so checking it checks the whole series in one pass; a column of
+    zeros keeps the divisor 1.
+    """
+    scale = xp.max(xp.abs(residuals), axis=0, keepdims=True)
+    if is_torch(xp):
+        scale = scale.detach()
+    if not bool(xp.all(xp.isfinite(scale))):
+        raise ValueError(
+            "residuals contain NaN or infinite values; the Ljung-Box statistic and "
+            "the autocovariances are undefined for them (a model that produced "
+            "them diverged, or the data hold missing values)."
+        )
+    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
+    return residuals / scale, scale
+
+
 def _block_size(nlags):
     """FFT length of the blocked autocovariance: short enough to stay in cache."""
     return max(256, 1 << (32 * (nlags + 1) - 1).bit_length())
@@ -121,22 +143,8 @@ def autocorrelation(residuals, nlags):
     """
     xp = get_namespace(residuals)
     _check_series(residuals, nlags, xp)
-    # The autocorrelation does not depend on the series' scale: divide each column
-    # by its largest magnitude first, so that no scale (1e-200 or 1e200) under- or
-    # overflows. The divisor is a constant (detached in torch); gradients are exact
-    # because rho is scale invariant. The maximum propagates NaN and infinity, so
-    # checking it checks the whole series in one pass.
-    scale = xp.max(xp.abs(residuals), axis=0, keepdims=True)
-    if is_torch(xp):
-        scale = scale.detach()
-    if not bool(xp.all(xp.isfinite(scale))):
-        raise ValueError(
-            "residuals contain NaN or infinite values; the Ljung-Box statistic is "
-            "undefined for them (a model that produced them diverged, or the data "
-            "hold missing values)."
-        )
-    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
-    scaled = residuals / scale
+    # The autocorrelation does not depend on the series' scale.
+    scaled, _ = _scaled_by_max(residuals, xp)
     centered = scaled - xp.mean(scaled, axis=0)
     acov = _autocovariance(centered, nlags, xp)
     variance = acov[0:1, ...]
@@ -293,16 +301,7 @@ def autocovariance_norm(residuals, lags=20):
     """
     xp = get_namespace(residuals)
     _check_series(residuals, lags, xp)
-    scale = xp.max(xp.abs(residuals), axis=0, keepdims=True)
-    if is_torch(xp):
-        scale = scale.detach()
-    if not bool(xp.all(xp.isfinite(scale))):
-        raise ValueError(
-            "residuals contain NaN or infinite values; the autocovariance norm is "
-            "undefined for them."
-        )
-    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
-    scaled = residuals / scale
+    scaled, scale = _scaled_by_max(residuals, xp)
     n = residuals.shape[0]
     acov = _autocovariance(scaled, lags, xp)[1:, ...] / n
     k = xp.arange(1, lags + 1, dtype=residuals.dtype)

@@ -39,7 +39,7 @@ _PREDICT_CHUNK = 8192
 #: The training-protocol parameters every neural estimator shares, written once
 #: and filled into each class docstring by :func:`fill_training_docstring`.
 TRAINING_PARAMETERS_DOC = """\
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
         Training objective on the standardised residuals (see
         :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
         the rows are in time order and trains on contiguous blocks of rows, never
@@ -212,51 +212,7 @@ class BaseNeuralRegressor(
 
     Parameters
     ----------
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
-        Training objective on the standardised residuals (see
-        :mod:`skhybrid.losses.base`). A Ljung-Box term assumes the rows are in time
-        order and trains on contiguous blocks of rows.
-    ljung_box_lags : int, default=20
-        Lags of the Ljung-Box term. Must be smaller than ``batch_size``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    lr : float, default=0.01
-        Initial learning rate of Adam.
-    max_epochs : int, default=200
-        Most passes over the training rows.
-    batch_size : int, default=512
-        Rows per mini-batch.
-    validation_fraction : float, default=0.2
-        Fraction of the rows, taken from the end, used to monitor training.
-    target_scaling : {"per_output", "shared"}, default="per_output"
-        How targets are standardised for training. ``"per_output"`` divides each
-        output by its own standard deviation, so every output counts the same (the
-        usual choice for states in different units). ``"shared"`` divides all
-        outputs by one scale (the root mean square of their standard deviations),
-        so the loss weighs errors in the outputs' own units, like a physics
-        stage's least squares: the choice for a residual stage, where outputs the
-        physics already explains hold only noise that per-output scaling would
-        blow up to unit variance.
-    horizon : int, default=1
-        Steps of the training loss: 1 trains one step ahead, ``T > 1`` by
-        simulation error over ``T`` steps (see the subclasses).
-    patience : int or None, default=30
-        Epochs without improvement of the monitored loss before training stops;
-        ``None`` trains for ``max_epochs`` (the best weights are still restored).
-    lr_patience : int, default=10
-        Epochs without improvement before the learning rate is reduced.
-    lr_factor : float, default=0.5
-        Factor applied to the learning rate on a plateau.
-    callbacks : list of skorch callbacks or None, default=None
-        Extra skorch callbacks, run after the built-in ones.
-    random_state : int, RandomState instance or None, default=None
-        Seeds the initial weights and the shuffling; the global torch random
-        state is left untouched. The same seed gives bitwise-identical
-        predictions on CPU.
-    device : {"cpu", "cuda"}, default="cpu"
-        Where the network trains and predicts.
-    verbose : int, default=0
-        0 is silent; 1 or more shows a progress bar and a table of the epochs.
+    %(training_parameters)s
     """
 
     _is_abstract_base = True
@@ -630,3 +586,6 @@ class BaseNeuralRegressor(
         y_pred *= self.y_scale_
         y_pred += self.y_mean_
         return y_pred[:, 0] if self._y_1d else y_pred
+
+
+BaseNeuralRegressor.__doc__ = fill_training_docstring(BaseNeuralRegressor.__doc__)

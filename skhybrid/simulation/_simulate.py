@@ -124,7 +124,7 @@ def _rollout(predict, layout, U, Y, n_init, lengths, noise=None):
     return Y
 
 
-def _pack(Y, lengths, form, leading=()):
+def _pack(Y, lengths, form):
     """Return ``Y`` in the container form of the inputs."""
     if form == "3d":
         return Y

@@ -18,6 +18,23 @@ from sklearn.base import (
 
 __all__ = ["all_displays", "all_estimators", "all_functions"]
 
+#: The subpackages and modules whose ``__all__`` make skhybrid's public API, in
+#: the order the API reference lists them (docs/conf.py, tests/test_docstrings.py).
+PUBLIC_MODULES = (
+    "domain",
+    "neural",
+    "hybrid",
+    "simulation",
+    "losses",
+    "model_selection",
+    "diagnostics",
+    "datasets",
+    "preprocessing",
+    "experiments",
+    "exceptions",
+    "utils",
+)
+
 _SKIP_MODULE_PARTS = {"tests", "cli", "__main__", "benchmarks"}
 
 

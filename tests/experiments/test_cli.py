@@ -3,8 +3,6 @@
 import csv
 import json
 import re
-import shutil
-import subprocess
 
 import pytest
 
@@ -144,18 +142,7 @@ def test_quick_run_writes_figures_and_self_contained_html(quick_run):
     assert "http" not in page  # nothing fetched from elsewhere
 
 
-def _chromium():
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
-
-
-def test_report_renders_in_headless_chromium(quick_run, tmp_path):
-    browser = _chromium()
-    if browser is None:
-        pytest.skip("no Chromium on this machine (apt-get install chromium)")
+def test_report_renders_in_headless_chromium(quick_run, tmp_path, rendered_dom):
     probe = tmp_path / "probe.html"
     probe.write_text(
         (quick_run / "report.html")
@@ -168,27 +155,9 @@ def test_report_renders_in_headless_chromium(quick_run, tmp_path):
             "document.body.setAttribute('data-rendered', ok);});</script></body>",
         )
     )
-    out = subprocess.run(
-        [
-            browser,
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--no-first-run",
-            f"--user-data-dir={tmp_path / 'profile'}",
-            "--virtual-time-budget=5000",
-            "--dump-dom",
-            probe.as_uri(),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
-    match = re.search(r'data-rendered="(\d+)"', out.stdout)
-    assert match, out.stderr[-2000:]
+    stdout, stderr = rendered_dom(probe)
+    match = re.search(r'data-rendered="(\d+)"', stdout)
+    assert match, stderr[-2000:]
     assert int(match.group(1)) == len(list(quick_run.glob("*.png")))
 
 

@@ -63,6 +63,26 @@ def _check_noise(noise, n_states, state_names):
     return np.broadcast_to(array, (n_states,)).copy()
 
 
+NOISE_TYPES = ("measurement", "process")
+
+
+def _check_noise_type(noise_type):
+    """``"measurement"`` or ``"process"``."""
+    if not isinstance(noise_type, str) or noise_type not in NOISE_TYPES:
+        raise ValueError(
+            f"noise_type must be one of {list(NOISE_TYPES)}; got "
+            f"noise_type={noise_type!r}."
+        )
+    return noise_type
+
+
+def _process_noise(rng, noise, n):
+    """A disturbance of shape ``(n, len(noise))``, or None when ``noise`` is zero."""
+    if not np.any(noise):
+        return None
+    return rng.standard_normal((n, noise.size)) * noise
+
+
 def _episode_lengths(n_samples, episode_length, n_steps):
     """Time steps of each episode so that the windows number exactly ``n_samples``.
 
@@ -91,18 +111,32 @@ def _feature_names(state_names, input_names, n_steps):
 
 
 def _window_bunch(
-    states_clean, inputs, *, noise, n_steps, rng, state_names, input_names, **extra
+    states_clean,
+    inputs,
+    *,
+    noise,
+    n_steps,
+    rng,
+    state_names,
+    input_names,
+    noise_type="measurement",
+    **extra,
 ):
     """Add measurement noise to per-episode states and cut them into windows.
 
     The noise is added to each episode's state sequence once, before windowing,
     so that a state is measured once: a row's newest state is the previous row's
-    target within an episode.
+    target within an episode. With ``noise_type="process"`` the states already
+    carry the disturbance that entered the dynamics and are measured exactly:
+    nothing is added, and the "clean" arrays are the measured ones.
     """
-    states = [
-        s + rng.standard_normal(s.shape) * noise if np.any(noise) else s.copy()
-        for s in states_clean
-    ]
+    if noise_type == "process":
+        states = [s.copy() for s in states_clean]
+    else:
+        states = [
+            s + rng.standard_normal(s.shape) * noise if np.any(noise) else s.copy()
+            for s in states_clean
+        ]
     X, y, groups = make_windows(states, inputs, n_steps=n_steps, return_groups=True)
     X_clean, y_clean = make_windows(states_clean, inputs, n_steps=n_steps)
     return Bunch(
@@ -120,6 +154,7 @@ def _window_bunch(
         input_names=list(input_names),
         n_steps=n_steps,
         noise=noise,
+        noise_type=noise_type,
         **extra,
     )
 

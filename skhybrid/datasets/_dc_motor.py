@@ -8,9 +8,11 @@ from sklearn.utils import check_random_state
 from skhybrid.datasets._base import (
     _check_int,
     _check_noise,
+    _check_noise_type,
     _check_real,
     _episode_lengths,
     _newest_rows,
+    _process_noise,
     _window_bunch,
 )
 
@@ -74,7 +76,9 @@ Runge-Kutta scheme (RK4, at most 0.1 ms per step, an integer number of steps
 per sample; checked against scipy.integrate.solve_ivp in the test suite).
 
 Observed: load angle (rad) and load speed (rad/s), with Gaussian measurement
-noise; input: the voltage (V), noise free. The paper's physics model of the
+noise (noise_type="measurement") or measured exactly after a Gaussian
+disturbance of the load angle and speed at every step (noise_type="process");
+input: the voltage (V), noise free. The paper's physics model of the
 real drive is a linear state-space model (skhybrid.domain.LinearStateSpaceModel);
 skhybrid.datasets.dc_motor_step is its physically parametrised rigid-gear form.
 """
@@ -155,10 +159,12 @@ def _advance(z, voltage, dt, p):
     return x.T
 
 
-def _simulate(voltage, dt, p, start=None):
+def _simulate(voltage, dt, p, start=None, disturbance=None):
     """Full states of shape (n_episodes, n_times, 5) under voltages (n_ep, n_times).
 
-    ``voltage[:, t]`` acts between samples ``t`` and ``t + 1``.
+    ``voltage[:, t]`` acts between samples ``t`` and ``t + 1``. ``disturbance(n)``,
+    if given, returns an array of shape ``(n, 2)`` (or None) added to the load
+    angle and speed after each step: process noise.
     """
     n_episodes, n_times = voltage.shape
     z = np.zeros((n_episodes, 5)) if start is None else np.array(start, dtype=float)
@@ -166,6 +172,9 @@ def _simulate(voltage, dt, p, start=None):
     for t in range(n_times):
         full[:, t] = z
         z = _advance(z, voltage[:, t], dt, p)
+        w = None if disturbance is None else disturbance(n_episodes)
+        if w is not None:
+            z[:, 3:5] += w
     return full
 
 
@@ -251,6 +260,7 @@ def make_dc_motor(
     excitation_hz=10.0,
     n_steps=1,
     noise=0.01,
+    noise_type="measurement",
     episode_length=1000,
     dt=0.001,
     motor_params=None,
@@ -278,8 +288,16 @@ def make_dc_motor(
     n_steps : int, default=1
         Time steps per window.
     noise : float or array-like of shape (2,), default=0.01
-        Standard deviation of the measurement noise on the load angle (rad) and
-        load speed (rad/s): one value for both, or one each.
+        Standard deviation of the noise on the load angle (rad) and load speed
+        (rad/s): one value for both, or one each.
+    noise_type : {"measurement", "process"}, default="measurement"
+        Where the noise enters. ``"measurement"`` (the paper's setting): added to
+        the measured load angle and speed only, so a row's inputs are noisy and
+        even the true equations' one-step residual is not white.
+        ``"process"``: added to the load angle and speed after every sample step
+        of the dynamics (a random disturbance the drive evolves from) and
+        measured exactly, so the true equations' one-step residual is white with
+        standard deviation ``noise``.
     episode_length : int, default=1000
         Time steps per episode (each starts at rest); each gives
         ``episode_length - n_steps`` rows, the last episode fewer.
@@ -304,7 +322,8 @@ def make_dc_motor(
         groups : ndarray of shape (n_samples,)
             Episode index of each row.
         X_clean, y_clean : ndarrays
-            The same without noise: ``y_clean`` is the true next state.
+            The same without noise: ``y_clean`` is the true next state. Under
+            process noise they equal ``X`` and ``y``.
         oracle : ndarray of shape (n_samples, 2)
             The true equations applied to the noisy window: the full drive started
             from the window's newest noisy load angle and speed, the true (hidden)
@@ -336,6 +355,8 @@ def make_dc_motor(
             Time steps per window.
         noise : ndarray of shape (2,)
             Noise standard deviation of each state.
+        noise_type : str
+            ``"measurement"`` or ``"process"``.
         DESCR : str
             Description of the data and the equations.
 
@@ -379,6 +400,7 @@ def make_dc_motor(
     )
     n_steps = _check_int(n_steps, "n_steps", 1)
     noise = _check_noise(noise, 2, _STATE_NAMES)
+    noise_type = _check_noise_type(noise_type)
     episode_length = _check_int(episode_length, "episode_length", 2)
     dt = _check_real(dt, "dt", low=0.0, low_closed=False)
     params = _check_motor_params(motor_params)
@@ -393,7 +415,10 @@ def make_dc_motor(
     levels = params["max_voltage"] * duty * polarity
     voltage = np.repeat(levels, hold, axis=1)[:, :n_times]
 
-    full = _simulate(voltage, dt, params)
+    disturbance = None
+    if noise_type == "process":
+        disturbance = lambda n: _process_noise(rng, noise, n)  # noqa: E731
+    full = _simulate(voltage, dt, params, disturbance=disturbance)
     full_states = [full[e, :n] for e, n in enumerate(lengths)]
     inputs = [voltage[e, :n, None] for e, n in enumerate(lengths)]
     states_clean = [f[:, 3:5] for f in full_states]
@@ -401,6 +426,7 @@ def make_dc_motor(
         states_clean,
         inputs,
         noise=noise,
+        noise_type=noise_type,
         n_steps=n_steps,
         rng=rng,
         state_names=_STATE_NAMES,

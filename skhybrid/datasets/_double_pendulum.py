@@ -9,9 +9,11 @@ from sklearn.utils import check_random_state
 from skhybrid.datasets._base import (
     _check_int,
     _check_noise,
+    _check_noise_type,
     _check_real,
     _episode_lengths,
     _newest_rows,
+    _process_noise,
     _window_bunch,
 )
 
@@ -37,7 +39,12 @@ every dt seconds.
 
 Only the large pendulum is observed: theta, theta_dot and its angular
 acceleration theta_ddot (evaluated from the full state by the equations of
-motion), each with Gaussian measurement noise of standard deviation `noise`.
+motion). With noise_type="measurement" (the paper's setting) each carries
+Gaussian measurement noise of standard deviation `noise`. With
+noise_type="process" a Gaussian disturbance enters theta and theta_dot after
+every sample (the system evolves from the disturbed state, integrated sample by
+sample) and the observations are exact; theta_ddot follows from the disturbed
+state.
 The small pendulum is the unmodelled degree of freedom: a single-pendulum
 physics model (skhybrid.datasets.single_pendulum_step) leaves an oscillating,
 correlated residual that a neural stage can learn. There are no inputs.
@@ -89,6 +96,25 @@ def _integrate(full_state, times, params, rtol=_RTOL, atol=_ATOL):
     if not sol.success:  # pragma: no cover - smooth, bounded dynamics
         raise RuntimeError(f"solve_ivp failed: {sol.message}")
     return sol.y.reshape(4, n, len(times)).transpose(1, 2, 0)
+
+
+def _integrate_disturbed(full_state, times, params, noise, rng):
+    """Like :func:`_integrate`, adding a Gaussian disturbance after every sample.
+
+    ``noise`` (2,) is the standard deviation of the disturbance of ``theta1`` and
+    ``theta1_dot``; the small pendulum is not disturbed.
+    """
+    n = full_state.shape[0]
+    full = np.empty((n, len(times), 4))
+    z = np.array(full_state, dtype=float)
+    for t in range(len(times)):
+        full[:, t] = z
+        if t + 1 < len(times):
+            z = _integrate(z, times[t : t + 2], params)[:, -1]
+            w = _process_noise(rng, noise, n)
+            if w is not None:
+                z[:, :2] += w
+    return full
 
 
 def _observe(full, params):
@@ -180,6 +206,7 @@ def make_double_pendulum(
     *,
     n_steps=1,
     noise=0.01,
+    noise_type="measurement",
     episode_length=1000,
     dt=0.01,
     masses=(1.0, 0.1),
@@ -205,9 +232,20 @@ def make_double_pendulum(
     n_steps : int, default=1
         Time steps per window.
     noise : float or array-like of shape (3,), default=0.01
-        Standard deviation of the Gaussian measurement noise on ``theta`` (rad),
+        Standard deviation of the Gaussian noise on ``theta`` (rad),
         ``theta_dot`` (rad/s) and ``theta_ddot`` (rad/s^2): one value for all, or
-        one per state.
+        one per state. Under process noise the disturbance enters ``theta`` and
+        ``theta_dot`` only; ``theta_ddot`` follows from the disturbed state and
+        the third value is not used (``data.noise`` reports it as 0).
+    noise_type : {"measurement", "process"}, default="measurement"
+        Where the noise enters. ``"measurement"`` (the paper's setting): added to
+        the measured states only, so a row's inputs are noisy and even the true
+        equations' one-step residual is a moving average, not white.
+        ``"process"``: a disturbance added to the large pendulum's angle and
+        speed after every sample, measured exactly, so the true equations'
+        one-step residual on ``theta`` and ``theta_dot`` is white with standard
+        deviation ``noise``. The episodes are then integrated sample by sample,
+        about ten times slower.
     episode_length : int, default=1000
         Time steps per episode; each gives ``episode_length - n_steps`` rows, the
         last episode fewer.
@@ -239,6 +277,7 @@ def make_double_pendulum(
             Episode index of each row.
         X_clean, y_clean : ndarrays
             The same without noise: ``y_clean`` is the true next observed state.
+            Under process noise they equal ``X`` and ``y``.
         oracle : ndarray of shape (n_samples, 3)
             The true equations applied to the noisy window: the full system
             started from the window's newest noisy ``theta`` and ``theta_dot`` and
@@ -266,6 +305,8 @@ def make_double_pendulum(
             Time steps per window.
         noise : ndarray of shape (3,)
             Noise standard deviation of each state.
+        noise_type : str
+            ``"measurement"`` or ``"process"``.
         DESCR : str
             Description of the data.
 
@@ -286,6 +327,7 @@ def make_double_pendulum(
     n_samples = _check_int(n_samples, "n_samples", 1)
     n_steps = _check_int(n_steps, "n_steps", 1)
     noise = _check_noise(noise, 3, _STATE_NAMES)
+    noise_type = _check_noise_type(noise_type)
     episode_length = _check_int(episode_length, "episode_length", 2)
     dt = _check_real(dt, "dt", low=0.0, low_closed=False)
     m1, m2 = _check_range_positive(masses, "masses")
@@ -302,7 +344,11 @@ def make_double_pendulum(
         [angles[:, 0], np.zeros(n_episodes), angles[:, 1], np.zeros(n_episodes)]
     )
     times = np.arange(n_times) * dt
-    full = _integrate(start, times, params)
+    if noise_type == "process":
+        full = _integrate_disturbed(start, times, params, noise[:2], rng)
+        noise = np.array([noise[0], noise[1], 0.0])
+    else:
+        full = _integrate(start, times, params)
 
     full_states = [full[e, :n] for e, n in enumerate(lengths_)]
     states_clean = [_observe(f, params) for f in full_states]
@@ -310,6 +356,7 @@ def make_double_pendulum(
         states_clean,
         None,
         noise=noise,
+        noise_type=noise_type,
         n_steps=n_steps,
         rng=rng,
         state_names=_STATE_NAMES,

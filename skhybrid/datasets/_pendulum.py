@@ -6,8 +6,10 @@ from sklearn.utils import check_random_state
 from skhybrid.datasets._base import (
     _check_int,
     _check_noise,
+    _check_noise_type,
     _check_range,
     _episode_lengths,
+    _process_noise,
     _window_bunch,
 )
 from skhybrid.domain import pendulum_step
@@ -40,9 +42,13 @@ the same equations as skhybrid.domain.PendulumModel:
 
 Episodes of fixed length start at theta ~ U(-pi, pi), theta_dot ~ U(-1, 1)
 (gymnasium's reset); the torque u is drawn uniformly from torque_range and held
-for a random number of steps drawn uniformly from hold_steps. Gaussian
-measurement noise of standard deviation `noise` is added independently to the
-observed states cos(theta), sin(theta) and theta_dot (not to the torque).
+for a random number of steps drawn uniformly from hold_steps. With
+noise_type="measurement" (the paper's setting), Gaussian measurement noise of
+standard deviation `noise` is added independently to the observed states
+cos(theta), sin(theta) and theta_dot (not to the torque). With
+noise_type="process", the same Gaussian disturbance is added to the state after
+every step of the dynamics and the states are measured exactly: the true
+equations' one-step residual is then white with standard deviation `noise`.
 
 State columns: cos_theta, sin_theta, theta_dot. Input column: torque.
 The paper trains and tests interpolation with torques in [-1, 1] and
@@ -58,6 +64,7 @@ def make_pendulum(
     *,
     n_steps=1,
     noise=0.01,
+    noise_type="measurement",
     episode_length=200,
     hold_steps=(1, 10),
     random_state=None,
@@ -65,7 +72,8 @@ def make_pendulum(
     """Simulate the inverted pendulum of gymnasium ``Pendulum-v1``.
 
     Episodes start from random states and are driven by random torques held for a
-    few steps; the observed states carry Gaussian measurement noise. Rows follow
+    few steps; the observed states carry Gaussian measurement noise, or the
+    dynamics a Gaussian disturbance (``noise_type``). Rows follow
     the data convention of :mod:`skhybrid.preprocessing`: a window of ``n_steps``
     time steps ``[cos_theta, sin_theta, theta_dot, torque]``, oldest first, and the
     target is the observed state one step after the window. Windows never cross
@@ -81,9 +89,17 @@ def make_pendulum(
     n_steps : int, default=1
         Time steps per window.
     noise : float or array-like of shape (3,), default=0.01
-        Standard deviation of the Gaussian measurement noise added to the observed
-        states ``cos_theta``, ``sin_theta``, ``theta_dot`` (one value for all, or one
-        per state). The torque is noise free.
+        Standard deviation of the Gaussian noise on the observed states
+        ``cos_theta``, ``sin_theta``, ``theta_dot`` (one value for all, or one per
+        state). The torque is noise free.
+    noise_type : {"measurement", "process"}, default="measurement"
+        Where the noise enters. ``"measurement"`` (the paper's setting): added to
+        the measured states only, so a row's inputs are noisy too and even the true
+        equations leave a one-step residual that is a moving average, not white.
+        ``"process"``: added to the state after every step of the dynamics (a
+        random disturbance the system then evolves from) and measured exactly, so
+        the true equations' one-step residual is the disturbance itself: white,
+        with standard deviation ``noise``.
     episode_length : int, default=200
         Time steps per episode (gymnasium's time limit); each episode gives
         ``episode_length - n_steps`` rows, the last episode fewer.
@@ -106,7 +122,8 @@ def make_pendulum(
             Episode index of each row.
         X_clean, y_clean : ndarrays
             The same windows and targets without measurement noise: ``y_clean``
-            is the true next state.
+            is the true next state. Under process noise there is no measurement
+            noise and they equal ``X`` and ``y``.
         oracle : ndarray of shape (n_samples, 3)
             The true equations applied to the noisy window (its newest step): the
             best any model of ``X`` can do; equal to
@@ -132,6 +149,8 @@ def make_pendulum(
             Time steps per window.
         noise : ndarray of shape (3,)
             Noise standard deviation of each state.
+        noise_type : str
+            ``"measurement"`` or ``"process"``.
         DESCR : str
             Description of the data.
 
@@ -162,6 +181,7 @@ def make_pendulum(
     torque_range = _check_range(torque_range, "torque_range")
     n_steps = _check_int(n_steps, "n_steps", 1)
     noise = _check_noise(noise, 3, _STATE_NAMES)
+    noise_type = _check_noise_type(noise_type)
     episode_length = _check_int(episode_length, "episode_length", 2)
     hold_steps = _check_range(hold_steps, "hold_steps", integer=True, minimum=1)
     rng = check_random_state(random_state)
@@ -187,6 +207,14 @@ def make_pendulum(
         cos_t, sin_t, theta_dot = pendulum_step(
             cos_t, sin_t, theta_dot, torque[:, t], **p
         )
+        if noise_type == "process":
+            w = _process_noise(rng, noise, n_episodes)
+            if w is not None:
+                cos_t, sin_t, theta_dot = (
+                    cos_t + w[:, 0],
+                    sin_t + w[:, 1],
+                    (theta_dot + w[:, 2]),
+                )
 
     states_clean = [states[e, :n] for e, n in enumerate(lengths)]
     inputs = [torque[e, :n, None] for e, n in enumerate(lengths)]
@@ -194,6 +222,7 @@ def make_pendulum(
         states_clean,
         inputs,
         noise=noise,
+        noise_type=noise_type,
         n_steps=n_steps,
         rng=rng,
         state_names=_STATE_NAMES,

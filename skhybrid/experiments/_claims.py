@@ -67,19 +67,33 @@ def _pendulum(result):
 def _double_pendulum(result):
     from skhybrid.diagnostics import ljung_box_test
 
+    # The paper's section 6.2 claim, on the states the dynamics carry: theta and
+    # theta_dot (theta_ddot is a function of the full state, not a state).
+    names = ["theta", "theta_dot"]
+    cols = [result.target_names.index(n) for n in names]
     data = result.splits["interpolation"]
-    residual = data.y - result.predictions["interpolation"]["physics+rnn (ljung-box)"]
+    residual = (
+        data.y - result.predictions["interpolation"]["physics+rnn (ljung-box)"]
+    )[:, cols]
     test = ljung_box_test(residual, result.settings.lags, alpha=0.01)
-    ratio = np.std(residual, axis=0) / np.asarray(data.noise)
-    names = result.target_names
+    ratio = np.std(residual, axis=0) / np.asarray(data.noise)[cols]
+    kind = getattr(data, "noise_type", "measurement")
+    where = (
+        ""
+        if kind == "process"
+        else " (measurement noise: the oracle's residual "
+        "is not white either, so the claim cannot hold)"
+    )
     return [
         _claim(
-            "The physics+RNN (Ljung-Box) residual passes the whiteness test at 1 %",
+            "The physics+RNN (Ljung-Box) residual on theta and theta_dot passes the "
+            "whiteness test at 1 %",
             np.all(test.pvalue > 0.01),
             "p-values "
             + ", ".join(
                 f"{n}: {p:.3g}" for n, p in zip(names, test.pvalue, strict=True)
-            ),
+            )
+            + where,
         ),
         _claim(
             "Its standard deviation is within 1.15x the injected noise",

@@ -135,6 +135,41 @@ def test_oracle_beats_noise_free_persistence(name, cache):
     assert oracle_rmse.sum() < persistence_rmse.sum()
 
 
+@pytest.mark.parametrize("name", SIMULATORS)
+def test_process_noise_makes_the_true_residual_white(name):
+    # Under process noise the states are measured exactly and the disturbance
+    # enters the dynamics: the true equations' one-step residual is the injected
+    # white noise. Under measurement noise, at the same seed, it is not white.
+    from skhybrid.diagnostics import ljung_box_test
+
+    noise = 0.02
+    data = _make(
+        name, n_samples=4000, noise=noise, noise_type="process", random_state=0
+    )
+    assert data.noise_type == "process"
+    assert_array_equal(data.X, data.X_clean)
+    residual = data.y - data.oracle
+    # The double pendulum's disturbance enters theta and theta_dot only.
+    disturbed = [0, 1] if name == "double_pendulum" else slice(None)
+    assert_allclose(residual[:, disturbed].std(axis=0), noise, rtol=0.05)
+    assert np.all(ljung_box_test(residual[:, disturbed], 20).pvalue > 0.01)
+    measured = _make(name, n_samples=4000, noise=noise, random_state=0)
+    assert measured.noise_type == "measurement"
+    assert np.all(ljung_box_test(measured.y - measured.oracle, 20).pvalue[:1] < 1e-6)
+
+
+def test_double_pendulum_process_noise_leaves_the_small_pendulum_undisturbed():
+    data = make_double_pendulum(
+        200, episode_length=100, noise=0.05, noise_type="process", random_state=0
+    )
+    assert_array_equal(data.noise, [0.05, 0.05, 0.0])
+    # theta_ddot follows from the (disturbed) full state exactly.
+    from skhybrid.datasets._double_pendulum import _observe
+
+    for full, states in zip(data.full_states, data.states, strict=True):
+        assert_allclose(_observe(full, data.true_params), states, atol=1e-12)
+
+
 @pytest.mark.parametrize("n_samples", [1, 59, 61, 119])
 @pytest.mark.parametrize("n_steps", [1, 2])
 def test_exact_number_of_rows(n_samples, n_steps):
@@ -162,6 +197,9 @@ def test_exact_number_of_rows(n_samples, n_steps):
         (make_dc_motor, dict(excitation_hz=0.0), "excitation_hz"),
         (make_dc_motor, dict(motor_params={"ohms": 1.0}), "motor_params"),
         (make_dc_motor, dict(motor_params={"resistance": -1.0}), "resistance"),
+        (make_pendulum, dict(noise_type="sensor"), "noise_type"),
+        (make_double_pendulum, dict(noise_type=None), "noise_type"),
+        (make_dc_motor, dict(noise_type="Process"), "noise_type"),
     ],
 )
 def test_bad_arguments_name_the_parameter(func, kwargs, match):

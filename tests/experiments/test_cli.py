@@ -59,6 +59,7 @@ def test_help_explains_run(capsys):
         (["run", "pendulum", "--resume", "--overwrite"], "not allowed with"),
         (["run", "pendulum", "--out", ""], "expected a folder, got an empty path"),
         (["run", "pendulum", "--quik"], "unrecognized arguments: --quik"),
+        (["run", "pendulum", "--noise-type", "sensor"], "invalid choice: 'sensor'"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line(capsys, argv, reason):
@@ -126,6 +127,14 @@ def test_quick_run_writes_results(quick_run):
     assert len(system["claims"]) == 2
     assert all(isinstance(c["passed"], bool) for c in system["claims"])
     assert system["hull_outside_share"]["extrapolation"] > 0
+    # The pendulum's default is the paper's measurement noise, and the report
+    # says so beside a whiteness table that includes the oracle.
+    assert system["noise_type"] == "measurement"
+    assert system["noise"] == [0.01, 0.01, 0.01]
+    html = (quick_run / "report.html").read_text()
+    assert "measurement noise (standard deviation cos_theta 0.01" in html
+    assert "<h3>Whiteness</h3>" in html
+    assert "<td>oracle</td>" in html
     assert report["environment"]["wall_time_s"] > 0
     for name, fit in system["fits"].items():
         assert fit["fit_time"] >= 0, name
@@ -198,3 +207,28 @@ def test_old_module_name_warns_and_still_works():
     import skhybrid.experiments as new
 
     assert old.run_experiment is new.run_experiment
+
+
+@pytest.mark.parametrize(
+    "system, noise_type, expected",
+    [
+        ("double-pendulum", None, "process"),
+        ("double-pendulum", "measurement", "measurement"),
+        ("pendulum", None, "measurement"),
+        ("dc-motor", "process", "process"),
+    ],
+)
+def test_noise_type_reaches_the_simulated_splits(system, noise_type, expected):
+    from dataclasses import replace
+
+    from skhybrid.experiments import SYSTEMS, ExperimentSettings
+
+    settings = replace(
+        ExperimentSettings.quick(),
+        n_train=300,
+        n_test=200,
+        noise_type=noise_type,
+    )
+    splits = SYSTEMS[system].make_splits(settings)
+    assert {data.noise_type for data in splits.values()} == {expected}
+    assert SYSTEMS[system].noise_type(settings) == expected

@@ -1,10 +1,13 @@
 """The Ljung-Box statistic, for NumPy arrays and torch tensors from one implementation.
 
-The autocorrelation is computed by FFT (overlap-save blocks for long series), so the
-cost grows as O(n log n) at most in the length of the series, not O(n * lags), and
-the torch version is differentiable.
+The lag sums ``sum_t x_t x_{t+k}`` are computed by blocked matrix products (long
+series, up to 256 lags) or by FFT (short series, more lags), and the torch version is
+differentiable: the matrix-product path has its own backward pass, one more
+matrix product, so a Ljung-Box loss costs a few times an MSE even at a million
+samples (``benchmarks/bench_ljung_box.py``).
 """
 
+import functools
 from numbers import Integral
 
 from skhybrid.utils._array_api import get_namespace, is_torch
@@ -80,7 +83,7 @@ def _block_size(nlags):
 
 
 def _autocovariance(centered, nlags, xp):
-    """Sums ``sum_t x_t x_{t+k}`` for k = 0..nlags, along axis 0, by FFT.
+    """Sums ``sum_t x_t x_{t+k}`` for k = 0..nlags, along axis 0, by FFT (many lags).
 
     Long series are cut into blocks of ``B = M - nlags`` samples; each block is
     correlated with itself extended by the next ``nlags`` samples through FFTs of
@@ -111,8 +114,194 @@ def _autocovariance(centered, nlags, xp):
     return xp.sum(cross[:, : nlags + 1, ...], axis=0)
 
 
+#: Series of at least this many samples, with at most this many lags, take the
+#: blocked matrix products; shorter series (a training batch), where the fixed cost
+#: of a few dozen small tensor operations dominates, and more lags take FFTs.
+#: The crossover was measured with benchmarks/bench_ljung_box.py's functions at
+#: 16k-32k samples (one thread, float32).
+_MATMUL_MIN_SAMPLES = 16_384
+_MATMUL_MAX_LAGS = 256
+
+
+def _matmul_block(nlags):
+    """Samples per block: ``nlags + 1`` (lags reach at most the next block)."""
+    return nlags + 1
+
+
+def _blocks(x, nlags, xp):
+    """Series (p, n) zero-padded and cut into blocks: shape (p, m, B)."""
+    p, n = x.shape
+    B = _matmul_block(nlags)
+    m = -(-n // B)
+    if m * B > n:
+        zeros = xp.zeros((p, m * B - n), dtype=x.dtype)
+        if is_torch(xp):
+            zeros = zeros.to(x.device)
+        x = xp.concat([x, zeros], axis=-1)
+    return xp.reshape(x, (p, m, B))
+
+
+def _lag_products(x, nlags, xp):
+    """Sums ``sum_t x_t x_{t+k}``, k = 0..nlags, of series ``x`` (p, n): (p, nlags+1).
+
+    The series is cut into blocks of ``B = nlags + 1`` samples, the rows of ``H``
+    (m, B). ``H^T H`` (B, B) holds in ``[s, s + k]`` the products at lag ``k``
+    within a block, summed over blocks, and ``H[:-1]^T H[1:]`` in ``[s, s + k - B]``
+    those that reach into the next block. Side by side they form a (B, 2B)
+    matrix whose diagonals are the lag sums, read off by skewing its rows. Two
+    GEMMs on views of the series (no copies), about ``4 n (nlags + 1)`` flops.
+    """
+    return _lag_products_blocks(_blocks(x, nlags, xp), nlags, xp)
+
+
+def _lag_products_blocks(H, nlags, xp):
+    """:func:`_lag_products` of a series already cut into blocks (p, m, B)."""
+    p, _, B = H.shape
+    Ht = xp.matrix_transpose(H)
+    pair = xp.concat(
+        [xp.matmul(Ht, H), xp.matmul(Ht[:, :, :-1], H[:, 1:, :])],
+        axis=-1,
+    )  # (p, B, 2B)
+    # Row s shifted left by s: append B zeros to the flat matrix and re-cut it
+    # into rows of 2B + 1, so that column k of row s holds pair[s, s + k].
+    flat = xp.reshape(pair, (p, 2 * B * B))
+    flat = xp.concat([flat, xp.zeros_like(flat[:, :B])], axis=-1)
+    skew = xp.reshape(flat, (p, B, 2 * B + 1))[..., : nlags + 1]
+    return xp.sum(skew, axis=1)
+
+
+def _lag_products_grad(H, grad, nlags, n):
+    """Gradient of ``sum_k grad_k * lag_products(x)_k`` with respect to ``x`` (torch).
+
+    ``H`` are the blocks of ``x`` (see :func:`_blocks`), ``n`` its length.
+    ``d/dx_t = 2 g_0 x_t + sum_{k>=1} g_k (x_{t+k} + x_{t-k})``: a correlation of
+    the series with a symmetric kernel, per block three matrix products with
+    Toeplitz matrices: the block itself, the next block and the previous one.
+    Returns the gradient in blocks, shape (p, m, B).
+    """
+    import torch
+
+    p = H.shape[0]
+    kernel = torch.cat(
+        [grad[:, 1:].flip(1), 2 * grad[:, :1], grad[:, 1:], grad.new_zeros(p, 1)], 1
+    )  # taps for lags -nlags..nlags, then a zero
+    same, ahead, behind = kernel[:, _toeplitz_index(nlags, str(H.device))].unbind(1)
+    out = torch.matmul(H, same)
+    out[:, :-1] += torch.matmul(H[:, 1:], ahead)
+    out[:, 1:] += torch.matmul(H[:, :-1], behind)
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def _toeplitz_index(nlags, device):
+    """Indices into the kernel of :func:`_lag_products_grad`'s Toeplitz matrices.
+
+    Shape (3, B, B): for the block itself, the next and the previous block,
+    ``[u, s]`` indexes the tap from input ``u`` to output ``s`` (lag ``u - s``
+    plus the blocks' offset), or the kernel's trailing zero beyond ``nlags``.
+    """
+    import torch
+
+    B = _matmul_block(nlags)
+    arange = torch.arange(B)
+    lag = arange[:, None] - arange + B * torch.tensor([0, 1, -1])[:, None, None]
+    index = torch.where(lag.abs() <= nlags, lag + nlags, 2 * nlags + 1)
+    return index.to(device)
+
+
+_LAG_PRODUCTS_FUNCTION = None
+
+
+def _lag_products_function():
+    """The torch autograd Function of the scaled (and centred) lag sums.
+
+    Forward and backward are fused by hand: the series is scaled, centred and
+    cut into blocks in the padded buffer without temporaries, and the
+    blocks are kept for the backward pass, which is three GEMMs and one more
+    fused pass. At a million samples the elementwise passes cost as much as the
+    matrix products, so this halves the cost of the loss against autograd.
+    """
+    global _LAG_PRODUCTS_FUNCTION
+    if _LAG_PRODUCTS_FUNCTION is None:
+        import torch
+
+        class LagProducts(torch.autograd.Function):
+            @staticmethod
+            def forward(ctx, x, nlags, scale, center):
+                p, n = x.shape
+                B = _matmul_block(nlags)
+                m = -(-n // B)
+                inv = 1.0 / scale  # (p, 1)
+                shift = -x.mean(dim=-1, keepdim=True) * inv if center else None
+                buffer = x.new_zeros(p, m * B)
+                # mul then add_ in place: two fast passes (addcmul with broadcast
+                # operands is slower than both together on the CPU).
+                torch.mul(x, inv, out=buffer[:, :n])
+                if center:
+                    buffer[:, :n].add_(shift)
+                H = buffer.view(p, m, B)
+                ctx.save_for_backward(H, inv)
+                ctx.nlags, ctx.center, ctx.n = nlags, center, n
+                return _lag_products_blocks(H, nlags, get_namespace(H))
+
+            @staticmethod
+            def backward(ctx, grad):
+                H, inv = ctx.saved_tensors
+                n = ctx.n
+                gz = _lag_products_grad(H, grad, ctx.nlags, n)
+                gz = gz.view(H.shape[0], -1)[:, :n]
+                grad_x = gz * inv
+                if ctx.center:
+                    grad_x.sub_(grad_x.mean(dim=-1, keepdim=True))
+                return grad_x, None, None, None
+
+        _LAG_PRODUCTS_FUNCTION = LagProducts
+    return _LAG_PRODUCTS_FUNCTION
+
+
+def _scaled_lag_products(residuals, nlags, xp, *, center):
+    """Lag sums of each column divided by its largest magnitude (and demeaned).
+
+    Returns ``(sums, scale)``: ``sums`` of shape ``(nlags + 1, ...)`` (the trailing
+    shape of ``residuals``), ``scale`` of shape ``(1, ...)``, so that the lag sums
+    of the original series are ``sums * scale ** 2``. Raises a ValueError on NaN
+    or infinite values (see :func:`_scaled_by_max`).
+    """
+    n = residuals.shape[0]
+    if nlags > _MATMUL_MAX_LAGS or n < _MATMUL_MIN_SAMPLES:
+        scaled, scale = _scaled_by_max(residuals, xp)
+        if center:
+            scaled = scaled - xp.mean(scaled, axis=0)
+        return _autocovariance(scaled, nlags, xp), scale
+    tail = residuals.shape[1:]
+    columns = xp.reshape(residuals, (n, -1))
+    if is_torch(xp):
+        # Two reductions, no temporary: abs() would write a copy of the series
+        # (aminmax and vector_norm(inf) are several times slower on the CPU).
+        detached = columns.detach()
+        scale = xp.maximum(
+            -detached.amin(dim=0, keepdim=True), detached.amax(dim=0, keepdim=True)
+        )
+    else:
+        scale = xp.max(xp.abs(columns), axis=0, keepdims=True)
+    if not bool(xp.all(xp.isfinite(scale))):
+        _scaled_by_max(residuals, xp)  # raises the common error
+    scale = xp.where(scale > 0, scale, xp.ones_like(scale))
+    series = xp.matrix_transpose(columns)  # (p, n)
+    scale_t = xp.matrix_transpose(scale)  # (p, 1)
+    if is_torch(xp):
+        sums = _lag_products_function().apply(series, nlags, scale_t, center)
+    else:
+        z = series / scale_t
+        if center:
+            z = z - xp.mean(z, axis=-1, keepdims=True)
+        sums = _lag_products(z, nlags, xp)
+    sums = xp.reshape(xp.matrix_transpose(sums), (nlags + 1, *tail))
+    return sums, xp.reshape(scale, (1, *tail))
+
+
 def autocorrelation(residuals, nlags):
-    """Sample autocorrelation of a series, per column, by FFT.
+    """Sample autocorrelation of a series, per column.
 
     The estimator is statsmodels' default ``acf(x, adjusted=False)``: the series is
     demeaned and ``rho_k = sum_t x_t x_{t+k} / sum_t x_t^2``. A constant series
@@ -144,9 +333,7 @@ def autocorrelation(residuals, nlags):
     xp = get_namespace(residuals)
     _check_series(residuals, nlags, xp)
     # The autocorrelation does not depend on the series' scale.
-    scaled, _ = _scaled_by_max(residuals, xp)
-    centered = scaled - xp.mean(scaled, axis=0)
-    acov = _autocovariance(centered, nlags, xp)
+    acov, _ = _scaled_lag_products(residuals, nlags, xp, center=True)
     variance = acov[0:1, ...]
     # A constant series has variance 0 and zero covariances: report rho = 0 there
     # (and keep gradients finite) rather than 0 / 0.
@@ -203,10 +390,12 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
     """Ljung-Box statistic ``Q = n (n + 2) sum_{k=1..L} rho_k^2 / (n - k)`` (Eq. 7).
 
     One implementation serves NumPy arrays (least-squares fits, diagnostics) and
-    torch tensors (training losses, differentiable). The autocorrelation is computed
-    by FFT, so the cost is O(n log n). The statistic is non-negative and invariant to
-    shifting and scaling the series; under the hypothesis of white noise it follows
-    approximately a chi-squared distribution with ``L`` degrees of freedom.
+    torch tensors (training losses, differentiable). The lag sums are blocked
+    matrix products for long series (FFTs for short ones and beyond 256 lags), so
+    the cost grows linearly with the length of the series. The statistic is
+    non-negative and invariant to shifting and scaling the series; under the
+    hypothesis of white noise it follows approximately a chi-squared distribution
+    with ``L`` degrees of freedom.
 
     Parameters
     ----------
@@ -301,9 +490,9 @@ def autocovariance_norm(residuals, lags=20):
     """
     xp = get_namespace(residuals)
     _check_series(residuals, lags, xp)
-    scaled, scale = _scaled_by_max(residuals, xp)
+    sums, scale = _scaled_lag_products(residuals, lags, xp, center=False)
     n = residuals.shape[0]
-    acov = _autocovariance(scaled, lags, xp)[1:, ...] / n
+    acov = sums[1:, ...] / n
     k = xp.arange(1, lags + 1, dtype=residuals.dtype)
     if is_torch(xp):
         k = k.to(residuals.device)
@@ -313,7 +502,7 @@ def autocovariance_norm(residuals, lags=20):
     squared = xp.sum(weights * acov**2, axis=0)
     # sqrt has an infinite slope at 0: a tiny floor keeps the gradient finite
     # without changing the value measurably (relative 1e-12 of the variance).
-    floor = 1e-24 * xp.mean(scaled**2, axis=0) ** 2
+    floor = 1e-24 * (sums[0, ...] / n) ** 2
     if is_torch(xp):
         floor = floor.detach()
     norm = xp.sqrt(squared + floor + 1e-300)

@@ -175,6 +175,46 @@ def test_blocked_fft_path_matches_statsmodels(rng, n, lags):
     np.testing.assert_allclose(torch_value, expected, rtol=1e-9)
 
 
+@pytest.mark.parametrize("n, lags", [(16_384, 50), (20_011, 1), (30_000, 256)])
+def test_matrix_product_path_matches_statsmodels(rng, n, lags):
+    """Long series take the blocked matrix products, on NumPy and torch."""
+    from skhybrid.losses import _ljung_box
+
+    assert n >= _ljung_box._MATMUL_MIN_SAMPLES and lags <= _ljung_box._MATMUL_MAX_LAGS
+    x = np.column_stack([_ar1(rng, n, 0.6), rng.standard_normal(n)])
+    expected = [_statsmodels_q(x[:, j], lags) for j in range(2)]
+    np.testing.assert_allclose(
+        ljung_box(x, lags, reduction="none"), expected, rtol=1e-9
+    )
+    for t in (torch.from_numpy(x), torch.from_numpy(x[:, 1])):
+        value = ljung_box(t, lags, reduction="none").numpy()
+        np.testing.assert_allclose(value, expected[-value.size :], rtol=1e-9)
+
+
+@pytest.mark.parametrize("n, lags", [(7, 3), (64, 1), (130, 20), (200, 5)])
+@pytest.mark.parametrize("function", ["ljung_box", "autocovariance_norm"])
+def test_matrix_product_path_gradcheck(monkeypatch, rng, n, lags, function):
+    """The hand-written backward pass of the matrix-product path is exact.
+
+    gradcheck perturbs every sample, so it runs on short series with the path's
+    length threshold lowered; the value must equal the FFT path's as well.
+    """
+    from skhybrid import losses
+    from skhybrid.losses import _ljung_box
+
+    f = getattr(losses, function)
+    x = torch.tensor(rng.standard_normal((n, 2)), requires_grad=True)
+    fft_value = f(x, lags)
+    monkeypatch.setattr(_ljung_box, "_MATMUL_MIN_SAMPLES", 1)
+    np.testing.assert_allclose(
+        f(x, lags).detach().numpy(), fft_value.detach().numpy(), rtol=1e-10
+    )
+    assert torch.autograd.gradcheck(lambda t: f(t, lags), (x,))
+    assert torch.autograd.gradcheck(
+        lambda t: f(t, lags), (x[:, 0].detach().requires_grad_(),)
+    )
+
+
 def test_blocked_fft_path_gradcheck(rng):
     x = torch.tensor(rng.standard_normal(1100), requires_grad=True)
     assert torch.autograd.gradcheck(lambda t: ljung_box(t, lags=3), (x,))

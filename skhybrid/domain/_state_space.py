@@ -170,7 +170,7 @@ class StateSpaceModel(DomainModel):
     >>> def oscillator(x, u, *, xp, omega):
     ...     return xp.stack([x[:, 1], -omega**2 * x[:, 0] + u[:, 0]], axis=1)
     >>> model = StateSpaceModel(
-    ...     oscillator, {"omega": 2.0}, state_names=["position", "speed"],
+    ...     oscillator, {"omega": 2.8}, state_names=["position", "speed"],
     ...     observed=["position"], dt=0.05, n_substeps=2,
     ... )
     >>> u = np.sin(np.arange(200) * 0.05)[:, None]
@@ -993,7 +993,7 @@ def check_identifiability(jacobian, names, *, tol=1e-6):
     >>> J = np.column_stack([a * b * u, a * b * u])  # d(a b u)/d log a, / d log b
     >>> print(check_identifiability(J, ["a", "b"]))
     only the combination a*b is determined: parameters 'a' and 'b' move together \
-without changing the fit (smallest/largest singular value 0; null direction in \
+without changing the fit (smallest/largest singular value < 1e-12; null direction in \
 relative units: +0.71 a, -0.71 b). Fix one of them or reparametrise.
     """
     J = np.asarray(jacobian, dtype=float)
@@ -1018,11 +1018,12 @@ relative units: +0.71 a, -0.71 b). Fix one of them or reparametrise.
     if ratio >= tol:
         return None
     v = vt[-1]
-    v = v * np.sign(v[np.argmax(np.abs(v))])
     dominant = np.flatnonzero(np.abs(v) >= 0.1 * np.max(np.abs(v)))
+    v = v * np.sign(v[dominant[0]])  # the first named parameter moves up
     direction = ", ".join(f"{v[i]:+.2f} {names[i]}" for i in dominant)
+    shown = "< 1e-12" if ratio < 1e-12 else f"{ratio:.2g}"
     detail = (
-        f"(smallest/largest singular value {ratio:.2g}; null direction in relative "
+        f"(smallest/largest singular value {shown}; null direction in relative "
         f"units: {direction}). Fix one of them or reparametrise."
     )
     if dominant.size == 1:

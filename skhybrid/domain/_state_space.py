@@ -106,11 +106,23 @@ class StateSpaceModel(DomainModel):
     solver_options : dict or None, default=None
         Keyword arguments of :func:`scipy.integrate.solve_ivp`; ``None`` uses
         ``method="DOP853", rtol=1e-10, atol=1e-12``.
-    initial_state : array-like of shape (n_states,) or None, default=None
-        Starting guess of the estimated initial states; ``None`` is zeros.
+    initial_state : array-like of shape (n_states,), callable or None, \
+default=None
+        Starting guess of the estimated initial states: one state for every
+        record (``None`` is zeros), or ``initial_state(outputs, inputs)`` returning
+        guesses ``(n_records, n_states)`` from the windows' measured outputs
+        ``(n_records, n_window, n_outputs)`` and inputs. Least squares through
+        nonlinear physics (a backlash, friction) can stop in a local minimum far
+        from a poor guess: a guess consistent with the measurements (a motor angle
+        of ``gear_ratio`` times the load angle) helps.
     n_init : int, default=20
         Samples at the start of each record from which ``fit_simulation``
         estimates its initial state.
+    estimate_observed : bool, default=True
+        Whether the initial values of the observed states are fitted too, starting
+        from their measured values (robust to measurement noise), or held at the
+        measured values (``False``). A window of one step always holds them at the
+        measured values.
     identifiability_tol : float, default=1e-6
         Warn with ``IdentifiabilityWarning`` where the smallest singular value of
         the relative Jacobian is below this fraction of the largest.
@@ -196,8 +208,9 @@ class StateSpaceModel(DomainModel):
         "method": [StrOptions({"rk4", "euler", "solve_ivp"})],
         "n_substeps": [Interval(Integral, 1, None, closed="left")],
         "solver_options": [dict, None],
-        "initial_state": ["array-like", None],
+        "initial_state": ["array-like", callable, None],
         "n_init": [Interval(Integral, 1, None, closed="left")],
+        "estimate_observed": ["boolean"],
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
     }
 
@@ -216,6 +229,7 @@ class StateSpaceModel(DomainModel):
         solver_options=None,
         initial_state=None,
         n_init=20,
+        estimate_observed=True,
         identifiability_tol=1e-6,
         fixed=(),
         bounds=None,
@@ -252,6 +266,7 @@ class StateSpaceModel(DomainModel):
         self.solver_options = solver_options
         self.initial_state = initial_state
         self.n_init = n_init
+        self.estimate_observed = estimate_observed
         self.identifiability_tol = identifiability_tol
 
     def __sklearn_tags__(self):
@@ -318,6 +333,8 @@ class StateSpaceModel(DomainModel):
             )
         if self.initial_state is None:
             guess = np.zeros(n_states)
+        elif callable(self.initial_state):
+            guess = self.initial_state
         else:
             guess = np.asarray(self.initial_state, dtype=float).reshape(-1)
             if guess.shape != (n_states,) or not np.all(np.isfinite(guess)):
@@ -368,14 +385,21 @@ class StateSpaceModel(DomainModel):
                 f"{n_outputs} output(s); each step is [outputs..., inputs...]."
             )
 
+    def _needs_estimation(self, observed):
+        """Whether a window's initial state is fitted (not read off the window)."""
+        if observed is None or self._n_latent(observed):
+            return True
+        return bool(self.estimate_observed) and self.n_steps > 1
+
     def _check_autograd(self):
         _, observed, _ = self._structure()
-        if self._n_latent(observed) or self.method == "solve_ivp":
+        if self._needs_estimation(observed) or self.method == "solve_ivp":
             raise ValueError(
-                "jac='autograd' needs every state observed (no initial-state "
-                "estimation inside the residuals) and method 'rk4' or 'euler'; got "
-                f"observed={self.observed!r} of state_names={self.state_names!r} "
-                f"and method={self.method!r}."
+                "jac='autograd' needs windows whose first step gives the state (every "
+                "state observed, and n_steps=1 or estimate_observed=False) and method "
+                f"'rk4' or 'euler'; got observed={self.observed!r} of state_names="
+                f"{self.state_names!r}, n_steps={self.n_steps}, estimate_observed="
+                f"{self.estimate_observed!r} and method={self.method!r}."
             )
 
     def _n_latent(self, observed):
@@ -383,7 +407,8 @@ class StateSpaceModel(DomainModel):
         return n_states if observed is None else n_states - len(observed)
 
     # -- the physics ---------------------------------------------------------------
-    def _takes_xp(self, func):
+    @staticmethod
+    def _takes_xp(func):
         try:
             signature = inspect.signature(func)
         except (TypeError, ValueError):
@@ -393,52 +418,58 @@ class StateSpaceModel(DomainModel):
             for p in signature.parameters.values()
         )
 
-    def _call_rhs(self, x, u, params, xp):
-        if self._takes_xp(self.rhs):
-            out = self.rhs(x, u, xp=xp, **params)
-        else:
-            out = self.rhs(x, u, **params)
-        shape = tuple(int(d) for d in getattr(out, "shape", ()))
-        if shape != tuple(x.shape):
-            name = getattr(self.rhs, "__name__", repr(self.rhs))
-            raise ValueError(
-                f"rhs {name} returned shape {shape} for a state of shape "
-                f"{tuple(x.shape)}; it must return one value per state and sample, "
-                "for example xp.stack([...], axis=1)."
-            )
-        return out
+    def _rhs_fn(self, params, xp):
+        """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""
+        rhs = self.rhs
+        kwargs = dict(params, xp=xp) if self._takes_xp(rhs) else dict(params)
 
-    def _outputs(self, x, params, observed, xp):
+        def f(x, u):
+            out = rhs(x, u, **kwargs)
+            shape = tuple(int(d) for d in getattr(out, "shape", ()))
+            if shape != tuple(x.shape):
+                name = getattr(rhs, "__name__", repr(rhs))
+                raise ValueError(
+                    f"rhs {name} returned shape {shape} for a state of shape "
+                    f"{tuple(x.shape)}; it must return one value per state and "
+                    "sample, for example xp.stack([...], axis=1)."
+                )
+            return out
+
+        return f
+
+    def _output_fn(self, params, observed, xp):
+        """``h(x)``: the observed states or the user's ``output``."""
         if observed is not None:
-            return x[:, observed]
-        if self._takes_xp(self.output):
-            out = self.output(x, xp=xp, **params)
-        else:
-            out = self.output(x, **params)
-        if out.ndim == 1:
-            out = out[:, None]
-        return out
+            return lambda x: x[:, observed]
+        output = self.output
+        kwargs = dict(params, xp=xp) if self._takes_xp(output) else dict(params)
 
-    def _step(self, x, u, params, xp):
+        def h(x):
+            out = output(x, **kwargs)
+            return out[:, None] if out.ndim == 1 else out
+
+        return h
+
+    def _step(self, x, u, f):
         """State one sample period after ``x`` under the held input ``u``."""
         if self.time == "discrete":
-            return self._call_rhs(x, u, params, xp)
+            return f(x, u)
         dt = float(self.dt)
         if self.method == "solve_ivp":
-            return self._step_ivp(x, u, params, dt)
+            return self._step_ivp(x, u, f, dt)
         h = dt / self.n_substeps
         for _ in range(self.n_substeps):
-            k1 = self._call_rhs(x, u, params, xp)
+            k1 = f(x, u)
             if self.method == "euler":
                 x = x + h * k1
                 continue
-            k2 = self._call_rhs(x + 0.5 * h * k1, u, params, xp)
-            k3 = self._call_rhs(x + 0.5 * h * k2, u, params, xp)
-            k4 = self._call_rhs(x + h * k3, u, params, xp)
+            k2 = f(x + 0.5 * h * k1, u)
+            k3 = f(x + 0.5 * h * k2, u)
+            k4 = f(x + h * k3, u)
             x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         return x
 
-    def _step_ivp(self, x, u, params, dt):
+    def _step_ivp(self, x, u, f, dt):
         x = np.asarray(x, dtype=float)
         if not np.all(np.isfinite(x)):
             return np.full_like(x, np.nan)
@@ -447,9 +478,7 @@ class StateSpaceModel(DomainModel):
         options.update(self.solver_options or {})
 
         def fun(_, z):
-            return np.asarray(
-                self._call_rhs(z.reshape(shape), u, params, np), dtype=float
-            ).ravel()
+            return np.asarray(f(z.reshape(shape), u), dtype=float).ravel()
 
         sol = solve_ivp(fun, (0.0, dt), x.ravel(), **options)
         if not sol.success:
@@ -461,31 +490,53 @@ class StateSpaceModel(DomainModel):
 
         ``U`` is ``(n, T, n_inputs)``; the output at time ``t`` is read before the
         input ``U[:, t]`` acts. Also returns the final state (after ``n_times``
-        samples, ``n_times <= T + 1``).
+        samples, ``n_times <= T + 1``). NumPy runs use ``numpy`` itself as ``xp``.
         """
+        if not is_torch(xp):
+            xp = np
+        f = self._rhs_fn(params, xp)
+        h = self._output_fn(params, observed, xp)
         n_times = U.shape[1] if n_times is None else n_times
         x, outs = x0, []
         for t in range(n_times):
-            outs.append(self._outputs(x, params, observed, xp))
+            outs.append(h(x))
             if t < U.shape[1]:
-                x = self._step(x, U[:, t], params, xp)
+                x = self._step(x, U[:, t], f)
         return xp.stack(outs, axis=1), x
 
     # -- initial states ------------------------------------------------------------
-    def _start(self, Y0, guess, observed, xp=np, like=None):
-        """States at the first sample: observed ones measured, the others guessed."""
+    def _call_guess(self, func, Y, U, n_states):
+        guess = np.asarray(func(np.asarray(Y), np.asarray(U)), dtype=float)
+        if guess.shape != (Y.shape[0], n_states) or not np.all(np.isfinite(guess)):
+            name = getattr(func, "__name__", repr(func))
+            raise ValueError(
+                f"initial_state {name} returned shape {guess.shape} for "
+                f"{Y.shape[0]} window(s); it must return finite guesses of shape "
+                f"({Y.shape[0]}, {n_states})."
+            )
+        return guess
+
+    def _start(self, Y0, guess, observed, xp=np):
+        """States at the first sample: observed ones measured, the others guessed.
+
+        ``guess`` is one state ``(n_states,)`` or one per record ``(n, n_states)``.
+        """
         n = Y0.shape[0]
+        guess = np.broadcast_to(guess, (n, len(self.state_names)))
         if observed is None:
-            return np.tile(guess, (n, 1))
+            return np.array(guess)
         columns = []
         for j in range(len(self.state_names)):
             if j in observed:
                 columns.append(Y0[:, observed.index(j)])
             else:
-                columns.append(guess[j] + 0.0 * Y0[:, 0])
+                column = guess[:, j]
+                if is_torch(xp):
+                    column = xp.asarray(column, dtype=Y0.dtype)
+                columns.append(column)
         return xp.stack(columns, axis=1)
 
-    def _estimate_x0(self, Y, U, params, structure, max_iter=100):
+    def _estimate_x0(self, Y, U, params, structure, max_iter=50):
         """Least-squares initial states ``(n, n_states)`` of windows ``Y``, ``U``.
 
         ``Y`` is ``(n, k, n_outputs)`` measured outputs and ``U`` ``(n, k,
@@ -495,10 +546,12 @@ class StateSpaceModel(DomainModel):
         states: the latent ones, or all of them with an ``output`` function.
         """
         n_states, observed, guess = structure
+        if callable(guess):
+            guess = self._call_guess(guess, Y, U, n_states)
         x0 = self._start(Y[:, 0], guess, observed)
         free = (
             list(range(n_states))
-            if observed is None
+            if observed is None or self.estimate_observed
             else [j for j in range(n_states) if j not in observed]
         )
         k = Y.shape[1]
@@ -547,7 +600,7 @@ class StateSpaceModel(DomainModel):
                 if np.all(better | done | small):
                     break
             gain = (start_cost - cost) / (start_cost + 1e-300)
-            done |= small | (gain < 1e-10)
+            done |= small | (gain < 1e-6)
             if np.all(done):
                 break
         return x0
@@ -618,10 +671,13 @@ n_outputs) or list of 2-D arrays
         n_out = self.n_outputs_
         steps = split_steps(X, self.n_steps)
         Y, U = steps[:, :, :n_out], steps[:, :, n_out:]
-        if self._n_latent(structure[1]) and not is_torch(xp):
+        if self._needs_estimation(structure[1]) and not is_torch(xp):
             x0 = self._estimate_x0(np.asarray(Y), np.asarray(U), params, structure)
         else:
-            x0 = self._start(Y[:, 0], structure[2], structure[1], xp)
+            guess = structure[2]
+            if callable(guess):
+                guess = self._call_guess(guess, Y, U, structure[0])
+            x0 = self._start(Y[:, 0], guess, structure[1], xp)
         out, _ = self._run(x0, U, params, structure[1], xp, n_times=self.n_steps + 1)
         return out[:, -1]
 

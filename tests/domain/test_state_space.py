@@ -218,7 +218,8 @@ def test_identifiable_parameters_do_not_warn():
 def test_check_identifiability_ratio():
     J = np.array([[1.0, 0.0], [0.0, 1.0]])
     assert check_identifiability(J, ["a", "b"]) is None
-    J = np.array([[1.0, 2.0], [2.0, 4.0]])
+    # y = a / b: relative changes of a and b cancel when they move together.
+    J = np.array([[1.0, -1.0], [2.0, -2.0]])
     assert "a/b" in check_identifiability(J, ["a", "b"])
 
 
@@ -259,8 +260,8 @@ def test_latent_state_fit_by_simulation_error():
         n_substeps=4,
         n_steps=5,
         fixed=("omega", "zeta"),
-    ).fit(X, target)
-    np.testing.assert_allclose(windowed.predict(X), target, atol=1e-3)
+    ).fit(X, target[:, 0])
+    np.testing.assert_allclose(windowed.predict(X), target[:, 0], atol=1e-3)
 
 
 @pytest.mark.parametrize(

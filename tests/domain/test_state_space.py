@@ -146,7 +146,7 @@ def test_dc_motor_latent_states_simulate_within_noise():
         state_names=data.full_state_names,
         observed=["load_angle"],
         dt=data.dt,
-        n_substeps=20,
+        n_substeps=10,
         initial_state=motor_guess,
         fixed=tuple(params),
     )

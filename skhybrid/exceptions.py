@@ -9,6 +9,7 @@ from sklearn.exceptions import (
 )
 
 __all__ = [
+    "IdentifiabilityWarning",
     "InconsistentVersionWarning",
     "NonWhiteResidualWarning",
     "SimulationDivergedError",
@@ -86,4 +87,16 @@ class SimulationDivergedError(FloatingPointError, ValueError):
     The message names the first time step at which a state became NaN or
     infinite. Subclasses :class:`ValueError` and :class:`FloatingPointError`, as
     :class:`TrainingDivergedError` does.
+    """
+
+
+class IdentifiabilityWarning(UserWarning):
+    """The data determine only a combination of some fitted parameters.
+
+    Warned after a least-squares fit whose Jacobian (of the residuals with respect
+    to the free parameters, in relative units) is nearly singular: some direction in
+    parameter space leaves the fit unchanged. The message names the parameters that
+    move together along that direction and the combination the data do determine,
+    for example ``a*b`` when only the product of ``a`` and ``b`` enters the model.
+    Fix one of them (``fixed=``), reparametrise, or collect data that separate them.
     """

@@ -9,11 +9,14 @@ from skhybrid.domain._base import DomainModel
 from skhybrid.domain._linear import LinearStateSpaceModel
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step
+from skhybrid.domain._state_space import StateSpaceModel, check_identifiability
 
 __all__ = [
     "DomainModel",
     "LinearStateSpaceModel",
     "ParametricModel",
     "PendulumModel",
+    "StateSpaceModel",
+    "check_identifiability",
     "pendulum_step",
 ]

@@ -42,6 +42,24 @@ class _AffineSum:
 affine_sum = _AffineSum()
 
 
+class _AffineStep:
+    """``x(t+1) = a x + b sum(u)``: a one-state discrete map for any input width.
+
+    With a fixed ``repr`` for the same reason as :class:`_AffineSum`.
+    """
+
+    __name__ = "affine_step"
+
+    def __call__(self, x, u, *, xp, a, b):
+        return a * x + b * xp.sum(u, axis=1, keepdims=True)
+
+    def __repr__(self):
+        return "affine_step"
+
+
+affine_step = _AffineStep()
+
+
 FAST_PARAMS = {
     # Hybrid compositions: a linear physics model, then a tiny dense network.
     "HybridBoostingRegressor": dict(
@@ -66,6 +84,13 @@ FAST_PARAMS = {
         random_state=0,
     ),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),
+    "StateSpaceModel": dict(
+        rhs=affine_step,
+        params={"a": 0.5, "b": 0.1},
+        state_names=["x"],
+        observed=["x"],
+        time="discrete",
+    ),
     # Neural stages: tiny networks, few epochs. lr=0.03 and batch_size=32 give
     # check_regressors_train R^2 of about 0.75-0.83 (> 0.5 needed) in 8 epochs.
     "CyclicRegressor": dict(

@@ -1,0 +1,1103 @@
+"""StateSpaceModel: a user's state equations with latent states and initial-state fits.
+
+The model is ``dx/dt = f(x, u; p)`` (or ``x(t+1) = f(x, u; p)`` in discrete time)
+with the output ``y = x[observed]`` or ``y = h(x; p)``. Unmeasured (latent) states
+of the first sample of a record are estimated by least squares through the physics
+over an initialisation window; the parameters are fitted either on windows of
+history (one-step-ahead error, :meth:`StateSpaceModel.fit`) or on whole records by
+the free-run simulation error (:meth:`StateSpaceModel.fit_simulation`).
+"""
+
+import inspect
+import warnings
+from numbers import Integral, Real
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.domain._base import DomainModel, _ParameterSpec
+from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
+from skhybrid.losses import objective_residuals
+from skhybrid.preprocessing import split_steps, step_width
+from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
+from skhybrid.utils._array_api import is_torch
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    StrOptions,
+    _fit_context,
+    validate_data,
+)
+from skhybrid.utils._transaction import transactional
+
+__all__ = ["StateSpaceModel", "check_identifiability"]
+
+# Residual given to least_squares where a simulation became non-finite.
+_DIVERGED_RESIDUAL = 1e6
+
+
+class StateSpaceModel(DomainModel):
+    """A state-space physics model with latent states, fitted by least squares.
+
+    Write the state equations once, ``rhs(x, u, *, xp, **params)``, against the
+    array namespace ``xp``: ``x`` has shape ``(n, n_states)`` and ``u`` shape
+    ``(n, n_inputs)`` (possibly zero columns), and ``rhs`` returns ``dx/dt`` of shape
+    ``(n, n_states)`` for ``time="continuous"`` or the next state ``x(t+1)`` for
+    ``time="discrete"``. Continuous-time equations are integrated over each sample
+    period ``dt`` with the input held constant (zero-order hold), by ``n_substeps``
+    Euler or classical Runge-Kutta steps, or by :func:`scipy.integrate.solve_ivp`.
+
+    Only the ``observed`` states are measured; the others are latent. Wherever a
+    record (a window of history, or the initialisation window of a simulation)
+    starts, the observed states start at their measured values and the latent ones
+    are estimated by least squares: the initial latent state whose simulated
+    outputs over the window match the measured ones best (a batched
+    Levenberg-Marquardt iteration, one per record).
+
+    Two ways to fit the parameters:
+
+    - ``fit(X, y)``: scikit-learn's convention. A row of ``X`` is a window of
+      ``n_steps`` time steps, oldest first, each ``[outputs..., inputs...]`` (see
+      :func:`~skhybrid.preprocessing.make_windows`), and ``y`` the outputs at the
+      step after the window. The prediction of a row estimates the state at the
+      window's first step from the window, then simulates to the next step.
+      Choose ``n_steps`` large enough for the window to determine the latent
+      states.
+    - ``fit_simulation(inputs, outputs)``: on whole records, by the free-run
+      (output) error; each record's initial state is estimated from its first
+      ``n_init`` samples.
+
+    After a fit, a nearly singular Jacobian of the residuals with respect to the
+    free parameters (relative units) warns with
+    :class:`~skhybrid.exceptions.IdentifiabilityWarning`, naming the parameters
+    that only the data determine in combination.
+
+    Parameters
+    ----------
+    rhs : callable
+        ``rhs(x, u, *, xp, **params)``: the time derivative (continuous time) or
+        the next state (discrete time), shape ``(n, n_states)``. Define it at
+        module level so that the model pickles.
+    params : dict of str to float
+        Initial value of each parameter, by the name ``rhs`` (and ``output``)
+        take it under.
+    state_names : sequence of str
+        Name of every state, in the column order of ``x``.
+    observed : sequence of str or int, or None, default=None
+        The measured states (names or column indices): the outputs are
+        ``x[:, observed]``, in this order. Give exactly one of ``observed`` and
+        ``output``.
+    output : callable or None, default=None
+        ``output(x, *, xp, **params)`` returning the outputs ``(n, n_outputs)``
+        for a general measurement function; then every initial state is estimated
+        by least squares, starting from ``initial_state``.
+    time : {"continuous", "discrete"}, default="continuous"
+        Whether ``rhs`` returns ``dx/dt`` or ``x(t+1)``.
+    dt : float or None, default=None
+        Sample period of the data, needed for ``time="continuous"``; pass the
+        data set's ``data.dt`` (every loader of :mod:`skhybrid.datasets` returns
+        it).
+    method : {"rk4", "euler", "solve_ivp"}, default="rk4"
+        Integrator of continuous-time equations: fixed-step classical Runge-Kutta
+        or explicit Euler with ``n_substeps`` steps per sample, or
+        :func:`scipy.integrate.solve_ivp` (NumPy only; ``solver_options``).
+    n_substeps : int, default=1
+        Integration steps per sample period (``"euler"`` and ``"rk4"``).
+    solver_options : dict or None, default=None
+        Keyword arguments of :func:`scipy.integrate.solve_ivp`; ``None`` uses
+        ``method="DOP853", rtol=1e-10, atol=1e-12``.
+    initial_state : array-like of shape (n_states,), callable or None, \
+default=None
+        Starting guess of the estimated initial states: one state for every
+        record (``None`` is zeros), or ``initial_state(outputs, inputs)`` returning
+        guesses ``(n_records, n_states)`` from the windows' measured outputs
+        ``(n_records, n_window, n_outputs)`` and inputs. Least squares through
+        nonlinear physics (a backlash, friction) can stop in a local minimum far
+        from a poor guess: a guess consistent with the measurements (a motor angle
+        of ``gear_ratio`` times the load angle) helps.
+    n_init : int, default=20
+        Samples at the start of each record from which ``fit_simulation``
+        estimates its initial state.
+    estimate_observed : bool, default=True
+        Whether the initial values of the observed states are fitted too, starting
+        from their measured values (robust to measurement noise), or held at the
+        measured values (``False``). A window of one step always holds them at the
+        measured values.
+    identifiability_tol : float, default=1e-6
+        Warn with ``IdentifiabilityWarning`` where the smallest singular value of
+        the relative Jacobian is below this fraction of the largest.
+    fixed : tuple of str, default=()
+        Parameters held at their initial values during a fit.
+    bounds : dict of str to (float, float) or None, default=None
+        Bounds of named parameters.
+    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+        Least-squares objective (see :class:`DomainModel`).
+    ljung_box_lags : int, default=20
+        Lags of the Ljung-Box term.
+    ljung_box_weight : float, default=1.0
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    jac : {"2-point", "3-point", "autograd"}, default="2-point"
+        Jacobian of the residuals; ``"autograd"`` needs a model whose states are
+        all observed (no initial-state estimation inside the residuals), the
+        ``"rk4"`` or ``"euler"`` integrator and ``fit(X, y)``.
+    loss : str, default="linear"
+        Robust loss of ``least_squares``.
+    f_scale : float, default=1.0
+        Soft margin of robust losses.
+    max_nfev : int or None, default=None
+        Most residual evaluations.
+    n_steps : int, default=1
+        Time steps per row of ``X`` (the window of ``fit`` and ``predict``).
+
+    Attributes
+    ----------
+    params_ : dict
+        Fitted value of each parameter.
+    params_std_ : dict
+        Standard errors (0 for fixed parameters).
+    params_cov_ : ndarray of shape (n_free, n_free)
+        Covariance of the free parameters, in the order of ``free_params_``.
+    result_ : OptimizeResult or None
+        What ``least_squares`` returned.
+    n_features_in_ : int
+        Number of columns of a row of ``X``.
+    n_outputs_ : int
+        Number of outputs.
+    n_inputs_ : int
+        Number of inputs.
+    initial_states_ : ndarray of shape (n_records, n_states)
+        Estimated initial state of each record (``fit_simulation`` only).
+    rmse_ : float
+        Free-run RMSE over the records (``fit_simulation`` only).
+
+    See Also
+    --------
+    ParametricModel : A user's one-step function of the rows.
+    LinearStateSpaceModel : An unstructured linear state-space model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.domain import StateSpaceModel
+    >>> def oscillator(x, u, *, xp, omega):
+    ...     return xp.stack([x[:, 1], -omega**2 * x[:, 0] + u[:, 0]], axis=1)
+    >>> model = StateSpaceModel(
+    ...     oscillator, {"omega": 2.8}, state_names=["position", "speed"],
+    ...     observed=["position"], dt=0.05, n_substeps=2,
+    ... )
+    >>> u = np.sin(np.arange(200) * 0.05)[:, None]
+    >>> truth = StateSpaceModel(
+    ...     oscillator, {"omega": 3.0}, state_names=["position", "speed"],
+    ...     observed=["position"], dt=0.05, n_substeps=2, fixed=("omega",),
+    ... ).fit_simulation(u, np.zeros((200, 1)))
+    >>> y = truth.simulate_from_state(u, [0.5, 0.0])
+    >>> model = model.fit_simulation(u, y)
+    >>> round(model.params_["omega"], 4)
+    3.0
+    """
+
+    _parameter_constraints = {
+        **DomainModel._parameter_constraints,
+        "rhs": [callable],
+        "params": [dict],
+        "state_names": [list, tuple],
+        "observed": [list, tuple, None],
+        "output": [callable, None],
+        "time": [StrOptions({"continuous", "discrete"})],
+        "dt": [Interval(Real, 0, None, closed="neither"), None],
+        "method": [StrOptions({"rk4", "euler", "solve_ivp"})],
+        "n_substeps": [Interval(Integral, 1, None, closed="left")],
+        "solver_options": [dict, None],
+        "initial_state": ["array-like", callable, None],
+        "n_init": [Interval(Integral, 1, None, closed="left")],
+        "estimate_observed": ["boolean"],
+        "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
+    }
+
+    def __init__(
+        self,
+        rhs,
+        params,
+        *,
+        state_names,
+        observed=None,
+        output=None,
+        time="continuous",
+        dt=None,
+        method="rk4",
+        n_substeps=1,
+        solver_options=None,
+        initial_state=None,
+        n_init=20,
+        estimate_observed=True,
+        identifiability_tol=1e-6,
+        fixed=(),
+        bounds=None,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        jac="2-point",
+        loss="linear",
+        f_scale=1.0,
+        max_nfev=None,
+        n_steps=1,
+    ):
+        super().__init__(
+            fixed=fixed,
+            bounds=bounds,
+            objective=objective,
+            ljung_box_lags=ljung_box_lags,
+            ljung_box_weight=ljung_box_weight,
+            jac=jac,
+            loss=loss,
+            f_scale=f_scale,
+            max_nfev=max_nfev,
+            n_steps=n_steps,
+        )
+        self.rhs = rhs
+        self.params = params
+        self.state_names = state_names
+        self.observed = observed
+        self.output = output
+        self.time = time
+        self.dt = dt
+        self.method = method
+        self.n_substeps = n_substeps
+        self.solver_options = solver_options
+        self.initial_state = initial_state
+        self.n_init = n_init
+        self.estimate_observed = estimate_observed
+        self.identifiability_tol = identifiability_tol
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        # A fixed functional form (the physics) cannot fit arbitrary data.
+        tags.regressor_tags.poor_score = True
+        observed = self.observed if self.observed is not None else ()
+        tags.target_tags.multi_output = self.output is not None or len(observed) > 1
+        return tags
+
+    # -- structure -----------------------------------------------------------------
+    def _structure(self):
+        """Validated ``(n_states, observed indices, guess)``; ValueError otherwise."""
+        names = list(self.state_names)
+        if not names or not all(isinstance(n, str) for n in names):
+            raise ValueError(
+                "state_names must be a non-empty sequence of str; got "
+                f"state_names={self.state_names!r}."
+            )
+        if len(set(names)) != len(names):
+            raise ValueError(
+                f"state_names={self.state_names!r} repeats a name; each state needs "
+                "its own."
+            )
+        n_states = len(names)
+        if (self.observed is None) == (self.output is None):
+            raise ValueError(
+                "give exactly one of observed (the measured states) and output (a "
+                f"measurement function); got observed={self.observed!r} and "
+                f"output={self.output!r}."
+            )
+        observed = None
+        if self.observed is not None:
+            observed = []
+            for item in self.observed:
+                if isinstance(item, str):
+                    if item not in names:
+                        raise ValueError(
+                            f"observed names {item!r}, which is not in state_names="
+                            f"{names!r}."
+                        )
+                    observed.append(names.index(item))
+                elif isinstance(item, Integral) and not isinstance(item, bool):
+                    if not 0 <= item < n_states:
+                        raise ValueError(
+                            f"observed holds index {item!r}, outside the "
+                            f"{n_states} states of state_names={names!r}."
+                        )
+                    observed.append(int(item))
+                else:
+                    raise ValueError(  # noqa: TRY004 (a parameter value, not a type)
+                        "observed must hold state names or column indices; got "
+                        f"{item!r} in observed={self.observed!r}."
+                    )
+            if not observed or len(set(observed)) != len(observed):
+                raise ValueError(
+                    "observed must name at least one state, each once; got "
+                    f"observed={self.observed!r}."
+                )
+        if self.time == "continuous" and self.dt is None:
+            raise ValueError(
+                "dt=None, but time='continuous' needs the sample period: pass "
+                "dt=data.dt (every loader of skhybrid.datasets returns it)."
+            )
+        if self.initial_state is None:
+            guess = np.zeros(n_states)
+        elif callable(self.initial_state):
+            guess = self.initial_state
+        else:
+            guess = np.asarray(self.initial_state, dtype=float).reshape(-1)
+            if guess.shape != (n_states,) or not np.all(np.isfinite(guess)):
+                raise ValueError(
+                    f"initial_state must hold {n_states} finite values, one per "
+                    f"state of {names!r}; got initial_state={self.initial_state!r}."
+                )
+        return n_states, observed, guess
+
+    def _initial_params(self, X=None, y=None):
+        if not self.params:
+            raise ValueError(
+                "params must name at least one parameter with its initial value; "
+                f"got params={self.params!r}."
+            )
+        out = {}
+        for name, value in self.params.items():
+            try:
+                array = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"initial value of parameter {name!r} must be a number; got "
+                    f"{value!r}."
+                ) from None
+            if not np.all(np.isfinite(array)):
+                raise ValueError(
+                    f"initial value of parameter {name!r} must be finite; got "
+                    f"{value!r}."
+                )
+            out[name] = array if array.ndim else float(array)
+        return out
+
+    def _n_outputs_of(self, observed):
+        return None if observed is None else len(observed)
+
+    def _check_layout(self, n_step_features, n_outputs):
+        _, observed, _ = self._structure()
+        expected = self._n_outputs_of(observed)
+        if expected is not None and n_outputs != expected:
+            raise ValueError(
+                f"y has {n_outputs} output column(s) but observed={self.observed!r} "
+                f"names {expected} measured state(s); give one column per observed "
+                "state."
+            )
+        if n_step_features < n_outputs:
+            raise ValueError(
+                f"a time step of X has {n_step_features} column(s), fewer than the "
+                f"{n_outputs} output(s); each step is [outputs..., inputs...]."
+            )
+
+    def _needs_estimation(self, observed):
+        """Whether a window's initial state is fitted (not read off the window)."""
+        if observed is None or self._n_latent(observed):
+            return True
+        return bool(self.estimate_observed) and self.n_steps > 1
+
+    def _check_autograd(self):
+        _, observed, _ = self._structure()
+        if self._needs_estimation(observed) or self.method == "solve_ivp":
+            raise ValueError(
+                "jac='autograd' needs windows whose first step gives the state (every "
+                "state observed, and n_steps=1 or estimate_observed=False) and method "
+                f"'rk4' or 'euler'; got observed={self.observed!r} of state_names="
+                f"{self.state_names!r}, n_steps={self.n_steps}, estimate_observed="
+                f"{self.estimate_observed!r} and method={self.method!r}."
+            )
+
+    def _n_latent(self, observed):
+        n_states = len(self.state_names)
+        return n_states if observed is None else n_states - len(observed)
+
+    # -- the physics ---------------------------------------------------------------
+    @staticmethod
+    def _takes_xp(func):
+        try:
+            signature = inspect.signature(func)
+        except (TypeError, ValueError):
+            return True
+        return "xp" in signature.parameters or any(
+            p.kind is inspect.Parameter.VAR_KEYWORD
+            for p in signature.parameters.values()
+        )
+
+    def _rhs_fn(self, params, xp):
+        """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""
+        rhs = self.rhs
+        kwargs = dict(params, xp=xp) if self._takes_xp(rhs) else dict(params)
+
+        def f(x, u):
+            out = rhs(x, u, **kwargs)
+            shape = tuple(int(d) for d in getattr(out, "shape", ()))
+            if shape != tuple(x.shape):
+                name = getattr(rhs, "__name__", repr(rhs))
+                raise ValueError(
+                    f"rhs {name} returned shape {shape} for a state of shape "
+                    f"{tuple(x.shape)}; it must return one value per state and "
+                    "sample, for example xp.stack([...], axis=1)."
+                )
+            return out
+
+        return f
+
+    def _output_fn(self, params, observed, xp):
+        """``h(x)``: the observed states or the user's ``output``."""
+        if observed is not None:
+            return lambda x: x[:, observed]
+        output = self.output
+        kwargs = dict(params, xp=xp) if self._takes_xp(output) else dict(params)
+
+        def h(x):
+            out = output(x, **kwargs)
+            return out[:, None] if out.ndim == 1 else out
+
+        return h
+
+    def _step(self, x, u, f):
+        """State one sample period after ``x`` under the held input ``u``."""
+        if self.time == "discrete":
+            return f(x, u)
+        dt = float(self.dt)
+        if self.method == "solve_ivp":
+            return self._step_ivp(x, u, f, dt)
+        h = dt / self.n_substeps
+        for _ in range(self.n_substeps):
+            k1 = f(x, u)
+            if self.method == "euler":
+                x = x + h * k1
+                continue
+            k2 = f(x + 0.5 * h * k1, u)
+            k3 = f(x + 0.5 * h * k2, u)
+            k4 = f(x + h * k3, u)
+            x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return x
+
+    def _step_ivp(self, x, u, f, dt):
+        x = np.asarray(x, dtype=float)
+        if not np.all(np.isfinite(x)):
+            return np.full_like(x, np.nan)
+        shape = x.shape
+        options = {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12}
+        options.update(self.solver_options or {})
+
+        def fun(_, z):
+            return np.asarray(f(z.reshape(shape), u), dtype=float).ravel()
+
+        sol = solve_ivp(fun, (0.0, dt), x.ravel(), **options)
+        if not sol.success:
+            return np.full_like(x, np.nan)
+        return sol.y[:, -1].reshape(shape)
+
+    def _run(self, x0, U, params, observed, xp, n_times=None):
+        """Outputs ``(n, n_times, n_outputs)`` from states ``x0`` under ``U``.
+
+        ``U`` is ``(n, T, n_inputs)``; the output at time ``t`` is read before the
+        input ``U[:, t]`` acts. Also returns the final state (after ``n_times``
+        samples, ``n_times <= T + 1``). NumPy runs use ``numpy`` itself as ``xp``.
+        """
+        if not is_torch(xp):
+            xp = np
+        f = self._rhs_fn(params, xp)
+        h = self._output_fn(params, observed, xp)
+        n_times = U.shape[1] if n_times is None else n_times
+        x, outs = x0, []
+        for t in range(n_times):
+            outs.append(h(x))
+            if t < U.shape[1]:
+                x = self._step(x, U[:, t], f)
+        return xp.stack(outs, axis=1), x
+
+    # -- initial states ------------------------------------------------------------
+    def _call_guess(self, func, Y, U, n_states):
+        guess = np.asarray(func(np.asarray(Y), np.asarray(U)), dtype=float)
+        if guess.shape != (Y.shape[0], n_states) or not np.all(np.isfinite(guess)):
+            name = getattr(func, "__name__", repr(func))
+            raise ValueError(
+                f"initial_state {name} returned shape {guess.shape} for "
+                f"{Y.shape[0]} window(s); it must return finite guesses of shape "
+                f"({Y.shape[0]}, {n_states})."
+            )
+        return guess
+
+    def _start(self, Y0, guess, observed, xp=np):
+        """States at the first sample: observed ones measured, the others guessed.
+
+        ``guess`` is one state ``(n_states,)`` or one per record ``(n, n_states)``.
+        """
+        n = Y0.shape[0]
+        guess = np.broadcast_to(guess, (n, len(self.state_names)))
+        if observed is None:
+            return np.array(guess)
+        columns = []
+        for j in range(len(self.state_names)):
+            if j in observed:
+                columns.append(Y0[:, observed.index(j)])
+            else:
+                column = guess[:, j]
+                if is_torch(xp):
+                    column = xp.asarray(column, dtype=Y0.dtype)
+                columns.append(column)
+        return xp.stack(columns, axis=1)
+
+    def _estimate_x0(self, Y, U, params, structure, max_iter=50):
+        """Least-squares initial states ``(n, n_states)`` of windows ``Y``, ``U``.
+
+        ``Y`` is ``(n, k, n_outputs)`` measured outputs and ``U`` ``(n, k,
+        n_inputs)`` inputs over each window; NumPy only. A batched
+        Levenberg-Marquardt iteration with forward-difference Jacobians (the
+        perturbed trajectories simulated in one batch) on the free initial
+        states: the latent ones, or all of them with an ``output`` function.
+        """
+        n_states, observed, guess = structure
+        if callable(guess):
+            guess = self._call_guess(guess, Y, U, n_states)
+        x0 = self._start(Y[:, 0], guess, observed)
+        free = (
+            list(range(n_states))
+            if observed is None or self.estimate_observed
+            else [j for j in range(n_states) if j not in observed]
+        )
+        k = Y.shape[1]
+        if not free or (k < 2 and observed is not None):
+            return x0
+        n, m = Y.shape[0], len(free)
+        target = Y.reshape(n, -1)
+
+        def residuals(X0, reps):
+            out, _ = self._run(X0, np.repeat(U, reps, axis=0), params, observed, np, k)
+            with np.errstate(all="ignore"):
+                r = out.reshape(X0.shape[0], -1) - np.repeat(target, reps, axis=0)
+            bad = ~np.isfinite(r)
+            r[bad] = _DIVERGED_RESIDUAL
+            return r
+
+        cost = np.sum(residuals(x0, 1) ** 2, axis=1)
+        lam = np.full(n, 1e-3)
+        done = np.zeros(n, dtype=bool)
+        eye = np.eye(m)[None]
+        for _ in range(max_iter):
+            z = x0[:, free]
+            eps = np.maximum(1e-7 * np.abs(z), 1e-8)
+            batch = np.repeat(x0[:, None, :], m + 1, axis=1)
+            for i, j in enumerate(free):
+                batch[:, i + 1, j] += eps[:, i]
+            R = residuals(batch.reshape(-1, n_states), m + 1).reshape(n, m + 1, -1)
+            J = (R[:, 1:] - R[:, :1]) / eps[:, :, None]  # (n, m, n_res)
+            JtJ = J @ np.swapaxes(J, 1, 2)
+            g = J @ R[:, 0, :, None]
+            diag = np.diagonal(JtJ, axis1=1, axis2=2)
+            ridge = 1e-12 * (np.max(diag, axis=1) + 1e-300)
+            start_cost = cost.copy()
+            small = np.zeros(n, dtype=bool)
+            for _ in range(10):
+                damping = lam[:, None] * diag + ridge[:, None]
+                delta = -np.linalg.solve(JtJ + damping[:, :, None] * eye, g)[..., 0]
+                trial = x0.copy()
+                trial[:, free] = z + delta
+                cost_trial = np.sum(residuals(trial, 1) ** 2, axis=1)
+                better = (cost_trial < cost) & ~done
+                x0 = np.where(better[:, None], trial, x0)
+                cost = np.where(better, cost_trial, cost)
+                lam = np.where(better, lam / 10, lam * 10)
+                small |= np.all(np.abs(delta) <= 1e-12 * (np.abs(z) + 1e-9), axis=1)
+                if np.all(better | done | small):
+                    break
+            gain = (start_cost - cost) / (start_cost + 1e-300)
+            done |= small | (gain < 1e-6)
+            if np.all(done):
+                break
+        return x0
+
+    def _check_fitted_structure(self):
+        check_is_fitted(self)
+        return self._structure()
+
+    def estimate_initial_state(self, inputs, outputs):
+        """Estimate the initial state of records from their first samples.
+
+        The observed states start at their measured values; the latent ones are
+        fitted by least squares so that the simulated outputs over the given
+        samples match the measured ones.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+            Inputs over (at least) the initialisation window of each record.
+        outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
+n_outputs) or list of 2-D arrays
+            Measured outputs of the initialisation window; ``n_init`` samples.
+
+        Returns
+        -------
+        states : ndarray of shape (n_records, n_states)
+            The estimated state at the first sample of each record.
+        """
+        structure = self._check_fitted_structure()
+        U_list, _ = _as_list(inputs, "inputs")
+        Y_list, _ = _as_list(outputs, "outputs")
+        self._check_records(U_list, Y_list, "outputs")
+        out = np.empty((len(U_list), structure[0]))
+        for n_init, idx in _groups([len(y) for y in Y_list]):
+            U = np.stack([U_list[i][:n_init] for i in idx])
+            Y = np.stack([Y_list[i] for i in idx])
+            out[idx] = self._estimate_x0(Y, U, self.params_, structure)
+        return out
+
+    def _check_records(self, U_list, Y_list, y_name):
+        if len(U_list) != len(Y_list):
+            raise ValueError(
+                f"inputs holds {len(U_list)} record(s) but {y_name} holds "
+                f"{len(Y_list)}; give one {y_name} array per inputs array."
+            )
+        n_inputs = _check_widths(U_list, "inputs")
+        n_outputs = _check_widths(Y_list, y_name)
+        for name, expected, got in (
+            ("input", getattr(self, "n_inputs_", None), n_inputs),
+            ("output", getattr(self, "n_outputs_", None), n_outputs),
+        ):
+            if expected is not None and expected != got:
+                raise ValueError(
+                    f"the model was fitted with {expected} {name} column(s); got {got}."
+                )
+        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
+            if len(y) > len(u):
+                raise ValueError(
+                    f"{y_name}[{i}] holds {len(y)} time steps but inputs[{i}] only "
+                    f"{len(u)}; inputs cover the whole record."
+                )
+        return n_inputs, n_outputs
+
+    # -- windowed fit and predict --------------------------------------------------
+    def _equations(self, X, params, xp):
+        structure = self._structure()
+        n_out = self.n_outputs_
+        steps = split_steps(X, self.n_steps)
+        Y, U = steps[:, :, :n_out], steps[:, :, n_out:]
+        if self._needs_estimation(structure[1]) and not is_torch(xp):
+            x0 = self._estimate_x0(np.asarray(Y), np.asarray(U), params, structure)
+        else:
+            guess = structure[2]
+            if callable(guess):
+                guess = self._call_guess(guess, Y, U, structure[0])
+            x0 = self._start(Y[:, 0], guess, structure[1], xp)
+        out, _ = self._run(x0, U, params, structure[1], xp, n_times=self.n_steps + 1)
+        return out[:, -1]
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Fit the free parameters on windows of history (one-step-ahead error).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_steps * (n_outputs + n_inputs))
+            Windows of ``n_steps`` time steps, oldest first, each step
+            ``[outputs..., inputs...]`` (see
+            :func:`~skhybrid.preprocessing.make_windows`).
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Outputs at the step after each window.
+
+        Returns
+        -------
+        self : object
+            The fitted model.
+        """
+        self._structure()
+        multi = self.__sklearn_tags__().target_tags.multi_output
+        X, y = validate_data(
+            self, X, y, multi_output=multi, y_numeric=True, dtype=np.float64
+        )
+        super().fit(X, y)
+        self.n_inputs_ = step_width(X.shape[1], self.n_steps) - self.n_outputs_
+        self._warn_identifiability()
+        return self
+
+    def predict(self, X):
+        """Predict the outputs one step after each window.
+
+        The state at each window's first step is estimated from the window (the
+        observed states as measured, the latent ones by least squares), then
+        simulated to the step after the window.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps, each ``[outputs..., inputs...]``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Predicted outputs, 1-D when ``y`` was 1-D in ``fit``.
+        """
+        return super().predict(X)
+
+    # -- simulation-error fit ------------------------------------------------------
+    def fit_simulation(self, inputs, outputs):
+        """Fit the free parameters on whole records by the free-run output error.
+
+        Each record's initial state is estimated from its first ``n_init``
+        samples (least squares through the physics at the current parameters),
+        then the model runs free over the whole record; ``least_squares``
+        minimises the simulated outputs' error over every sample. The fitted model
+        also predicts windows of ``n_steps`` steps (``predict``) and simulates
+        (``simulate``).
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of (n_times_i, n_inputs) arrays
+            Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
+            ``t + 1``. Zero columns for an autonomous system.
+        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
+n_outputs) or list of (n_times_i, n_outputs) arrays
+            Measured outputs of each record, aligned with ``inputs``.
+
+        Returns
+        -------
+        self : object
+            The fitted model.
+        """
+        return self._fit_simulation(inputs, outputs)
+
+    @transactional
+    @_fit_context(prefer_skip_nested_validation=True)
+    def _fit_simulation(self, inputs, outputs):
+        structure = self._structure()
+        U_list, _ = _as_list(inputs, "inputs")
+        Y_list, _ = _as_list(outputs, "outputs")
+        for name, arrays in (("inputs", U_list), ("outputs", Y_list)):
+            for i, a in enumerate(arrays):
+                if not np.all(np.isfinite(a)):
+                    raise ValueError(
+                        f"{name}[{i}] holds NaN or infinite values; records must be "
+                        "finite."
+                    )
+        for attr in ("n_inputs_", "n_outputs_"):
+            self.__dict__.pop(attr, None)
+        n_inputs, n_outputs = self._check_records(U_list, Y_list, "outputs")
+        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
+            if len(u) != len(y):
+                raise ValueError(
+                    f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
+                    f"{len(y)}; each record's inputs and outputs must be aligned."
+                )
+            if len(y) <= self.n_init:
+                raise ValueError(
+                    f"outputs[{i}] holds {len(y)} time steps, not more than "
+                    f"n_init={self.n_init}: nothing is left to simulate."
+                )
+        if self.jac == "autograd":
+            raise ValueError(
+                "fit_simulation differentiates by finite differences; got "
+                "jac='autograd'. Use jac='2-point' or '3-point'."
+            )
+        self._check_layout(n_outputs + n_inputs, n_outputs)
+        self.n_outputs_, self.n_inputs_ = n_outputs, n_inputs
+        self.n_features_in_ = self.n_steps * (n_outputs + n_inputs)
+        self._y_1d = False
+
+        lengths = np.array([len(u) for u in U_list])
+        T = int(lengths.max())
+        U = np.zeros((len(U_list), T, n_inputs))
+        Y = np.zeros((len(U_list), T, n_outputs))
+        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
+            U[i, : len(u)], Y[i, : len(y)] = u, y
+        mask = np.arange(T)[None, :] < lengths[:, None]
+        y_flat = Y[mask]
+        init = self._initial_params()
+        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        self._spec = spec
+        if self.objective != "mse" and self.ljung_box_lags >= y_flat.shape[0]:
+            raise ValueError(
+                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
+                f"number of samples, {y_flat.shape[0]}."
+            )
+        self._records = (U, Y, mask, structure)
+        try:
+            theta, result = self._least_squares(U, y_flat, spec)
+            self.result_ = result
+            self.params_ = spec.to_dict(theta)
+            self.params_std_, self.params_cov_ = self._standard_errors(
+                U, y_flat, spec, theta
+            )
+            Y_sim, x0 = self._simulate_records(U, Y, self.params_, structure)
+        finally:
+            del self._records
+        self.initial_states_ = x0
+        err = (Y_sim - Y)[mask]
+        self.rmse_ = float(np.sqrt(np.mean(err**2)))
+        self._warn_identifiability()
+        return self
+
+    def _simulate_records(self, U, Y, params, structure):
+        n_init = min(self.n_init, Y.shape[1])
+        x0 = self._estimate_x0(Y[:, :n_init], U[:, :n_init], params, structure)
+        with np.errstate(all="ignore"):
+            out, _ = self._run(x0, U, params, structure[1], np)
+        return out, x0
+
+    def _record_residuals(self, theta, spec):
+        U, Y, mask, structure = self._records
+        params = spec.to_dict(theta)
+        out, _ = self._simulate_records(U, Y, params, structure)
+        with np.errstate(all="ignore"):
+            r = (Y - out)[mask]
+        return np.where(np.isfinite(r), r, _DIVERGED_RESIDUAL)
+
+    def _residual_vector(self, X, y, spec, xp):
+        if getattr(self, "_records", None) is None:
+            return super()._residual_vector(X, y, spec, xp)
+
+        def residuals(theta):
+            return objective_residuals(
+                self._record_residuals(np.asarray(theta, dtype=float), spec),
+                self.objective,
+                lags=self.ljung_box_lags,
+                ljung_box_weight=self.ljung_box_weight,
+            )
+
+        return residuals
+
+    def _raw_jacobian(self, X, y, spec, theta):
+        if getattr(self, "_records", None) is None:
+            J, base = super()._raw_jacobian(X, y, spec, theta)
+        else:
+
+            def raw(t):
+                return np.reshape(self._record_residuals(t, spec), -1)
+
+            base = raw(theta)
+            size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+            step = np.finfo(float).eps ** (1 / 3) * size
+            J = np.zeros((base.size, theta.size))
+            for j in range(theta.size):
+                up, down = theta.copy(), theta.copy()
+                hi = min(step[j], spec.upper[j] - theta[j])
+                lo = min(step[j], theta[j] - spec.lower[j])
+                if hi + lo > 0:
+                    up[j] += hi
+                    down[j] -= lo
+                    J[:, j] = (raw(up) - raw(down)) / (hi + lo)
+        self._jacobian_at_fit = (J, theta)
+        return J, base
+
+    def _warn_identifiability(self):
+        stash = self.__dict__.pop("_jacobian_at_fit", None)
+        if stash is None or self._spec.n_free < 2:
+            return
+        J, theta = stash
+        names = _free_labels(self._spec)
+        scale = np.where(theta != 0, np.abs(theta), self._spec.scale)
+        message = check_identifiability(J * scale, names, tol=self.identifiability_tol)
+        if message:
+            warnings.warn(
+                f"{type(self).__name__}: {message}",
+                IdentifiabilityWarning,
+                stacklevel=3,
+            )
+
+    # -- simulation ----------------------------------------------------------------
+    def simulate_from_state(self, inputs, states):
+        """Simulate the outputs from known initial states.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+            Inputs of each record.
+        states : array-like of shape (n_states,) or (n_records, n_states)
+            State at the first sample of each record.
+
+        Returns
+        -------
+        outputs : ndarray or list of ndarray
+            Simulated outputs ``(n_times, n_outputs)`` of each record, in the
+            container form of ``inputs``; row 0 is the output of ``states``.
+        """
+        n_states, _, _ = self._check_fitted_structure()
+        U_list, form = _as_list(inputs, "inputs")
+        x0 = np.atleast_2d(np.asarray(states, dtype=float))
+        if x0.shape != (len(U_list), n_states):
+            raise ValueError(
+                f"states must have shape ({len(U_list)}, {n_states}) for "
+                f"{len(U_list)} record(s) of state_names={list(self.state_names)!r}; "
+                f"got shape {x0.shape}."
+            )
+        return self._free_run_records(U_list, x0, form)
+
+    def _free_run_records(self, U_list, x0, form, initial=None):
+        _, observed, _ = self._structure()
+        lengths = np.array([len(u) for u in U_list])
+        n_in = U_list[0].shape[1]
+        U = np.zeros((len(U_list), int(lengths.max()), n_in))
+        for i, u in enumerate(U_list):
+            U[i, : len(u)] = u
+        with np.errstate(all="ignore"):
+            out, _ = self._run(x0, U, self.params_, observed, np)
+        out = np.asarray(out, dtype=float)
+        for i, n in enumerate(lengths):
+            bad = np.flatnonzero(~np.all(np.isfinite(out[i, :n]), axis=1))
+            if bad.size:
+                raise SimulationDivergedError(
+                    f"the simulation diverged at time step {bad[0]}: record {i} "
+                    "reached a non-finite output. The physics is unstable from "
+                    "this initial state (check the parameters and the inputs)."
+                )
+        if initial is not None:
+            for i, y in enumerate(initial):
+                out[i, : len(y)] = y
+        return _pack(out, lengths, form)
+
+    def simulate(
+        self, inputs, initial, *, n_samples=None, random_state=None, return_std=False
+    ):
+        """Simulate the fitted model in free run from measured initial windows.
+
+        The initial state of each record is estimated from its measured initial
+        window (see :meth:`estimate_initial_state`), then the physics runs free to
+        the end of the inputs. Follows the contract of
+        :func:`skhybrid.simulation.simulate`: the first ``n_init`` samples returned
+        are the measured ones.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
+n_times, n_inputs) or list of 2-D arrays
+            Inputs over the whole experiment, initial window included.
+        initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
+n_init, n_outputs) or list of 2-D arrays
+            Measured outputs of the first ``n_init`` time steps.
+        n_samples : int or None, default=None
+            Sample paths need a noise model, which this model has not: must be
+            None.
+        random_state : int, RandomState instance or None, default=None
+            Unused (no noise model).
+        return_std : bool, default=False
+            Must be False (no noise model).
+
+        Returns
+        -------
+        outputs : ndarray or list of ndarray
+            Simulated outputs in the container form of ``inputs``.
+        """
+        structure = self._check_fitted_structure()
+        if n_samples is not None or return_std:
+            raise ValueError(
+                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
+                f"model; {type(self).__name__} has none."
+            )
+        U_list, form = _as_list(inputs, "inputs")
+        Y_list, init_form = _as_list(initial, "initial")
+        if init_form != form:
+            raise ValueError(
+                f"initial must match inputs: inputs is a {form} container but "
+                f"initial a {init_form} one."
+            )
+        self._check_records(U_list, Y_list, "initial")
+        x0 = np.empty((len(U_list), structure[0]))
+        for n_init, idx in _groups([len(y) for y in Y_list]):
+            U = np.stack([U_list[i][:n_init] for i in idx])
+            Y = np.stack([Y_list[i] for i in idx])
+            x0[idx] = self._estimate_x0(Y, U, self.params_, structure)
+        return self._free_run_records(U_list, x0, form, initial=Y_list)
+
+
+def _groups(sizes):
+    """``(size, indices)`` of the records sharing each size."""
+    sizes = np.asarray(sizes)
+    return [(int(s), np.flatnonzero(sizes == s)) for s in np.unique(sizes)]
+
+
+def _free_labels(spec):
+    labels = []
+    for name in spec.free:
+        shape = spec.shapes[name]
+        if shape:
+            labels.extend(f"{name}[{i}]" for i in range(int(np.prod(shape))))
+        else:
+            labels.append(name)
+    return labels
+
+
+def check_identifiability(jacobian, names, *, tol=1e-6):
+    """Describe the parameter combination a nearly singular Jacobian leaves free.
+
+    Parameters
+    ----------
+    jacobian : array-like of shape (n_residuals, n_params)
+        Jacobian of the residuals with respect to the parameters in relative
+        units (each column multiplied by its parameter's value), so that its
+        singular values do not depend on the parameters' units.
+    names : sequence of str
+        Name of each parameter (column).
+    tol : float, default=1e-6
+        The Jacobian is nearly singular where its smallest singular value is
+        below ``tol`` times its largest.
+
+    Returns
+    -------
+    message : str or None
+        None when the parameters are identifiable; otherwise a sentence naming
+        the parameters along the right-singular vector of the smallest singular
+        value and the combination the data determine (``a*b`` where ``a`` and
+        ``b`` move in opposite relative directions, ``a/b`` where they move
+        together).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.domain import check_identifiability
+    >>> u = np.linspace(0, 1, 20)
+    >>> a, b = 2.0, 3.0
+    >>> J = np.column_stack([a * b * u, a * b * u])  # d(a b u)/d log a, / d log b
+    >>> print(check_identifiability(J, ["a", "b"]))
+    only the combination a*b is determined: parameters 'a' and 'b' move together \
+without changing the fit (smallest/largest singular value < 1e-12; null direction in \
+relative units: +0.71 a, -0.71 b). Fix one of them or reparametrise.
+    """
+    J = np.asarray(jacobian, dtype=float)
+    names = list(names)
+    if J.ndim != 2 or J.shape[1] != len(names) or J.shape[1] == 0:
+        raise ValueError(
+            f"jacobian must have one column per name; got shape {J.shape} and "
+            f"{len(names)} names."
+        )
+    if not np.all(np.isfinite(J)):
+        return None
+    s_all = np.linalg.svd(J, compute_uv=False)
+    s_max = float(s_all[0]) if s_all.size else 0.0
+    if s_max == 0:
+        return (
+            f"no parameter changes the fit: {', '.join(map(repr, names))} are not "
+            "determined by the data."
+        )
+    _, s, vt = np.linalg.svd(J, full_matrices=True)
+    s_min = float(s[-1]) if J.shape[0] >= J.shape[1] else 0.0
+    ratio = s_min / s_max
+    if ratio >= tol:
+        return None
+    v = vt[-1]
+    dominant = np.flatnonzero(np.abs(v) >= 0.1 * np.max(np.abs(v)))
+    v = v * np.sign(v[dominant[0]])  # the first named parameter moves up
+    direction = ", ".join(f"{v[i]:+.2f} {names[i]}" for i in dominant)
+    shown = "< 1e-12" if ratio < 1e-12 else f"{ratio:.2g}"
+    detail = (
+        f"(smallest/largest singular value {shown}; null direction in relative "
+        f"units: {direction}). Fix one of them or reparametrise."
+    )
+    if dominant.size == 1:
+        return (
+            f"parameter {names[dominant[0]]!r} does not change the fit: the data do "
+            f"not determine it {detail}"
+        )
+    if dominant.size == 2:
+        i, j = dominant
+        op = "*" if v[i] * v[j] < 0 else "/"
+        combination = f"{names[i]}{op}{names[j]}"
+        return (
+            f"only the combination {combination} is determined: parameters "
+            f"{names[i]!r} and {names[j]!r} move together without changing the fit "
+            f"{detail}"
+        )
+    quoted = ", ".join(repr(names[i]) for i in dominant)
+    return (
+        f"only a combination of {quoted} is determined: these parameters move "
+        f"together without changing the fit {detail}"
+    )

@@ -11,7 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.exceptions import NonWhiteResidualWarning
 from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
-from skhybrid.preprocessing import split_steps, step_width
+from skhybrid.preprocessing import WindowLayout, split_steps, step_width
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -410,13 +410,27 @@ class HybridBoostingRegressor(
         width = w + s + (s if with_res else 0)
         out = np.zeros((rows, n, width))
         out[:, :, :w] = steps
+        if with_res:
+            # The measured state of each step, read through the window layout
+            # (the first n_outputs columns of a step, checked in fit).
+            states, _ = self._layout(W.shape[1]).split(W)
         pad = n - 1 - k
         for p in range(pad, n):
             m = p - pad  # source step of position p: the window ending there is W_m
             out[:, p, w : w + s] = preds[m]
             if with_res and p < n - 1:
-                out[:, p, w + s :] = steps[:, p + 1, :s] - preds[m]
+                out[:, p, w + s :] = states[:, p + 1] - preds[m]
         return out.reshape(rows, n * width)
+
+    def _layout(self, n_features):
+        """The rows' :class:`~skhybrid.preprocessing.WindowLayout`: states = outputs.
+
+        Only the residual inputs need it (they read each step's measured state);
+        the other stage inputs accept any equal-width steps.
+        """
+        return WindowLayout.from_shapes(
+            n_features, self.n_outputs_, n_steps=self.n_steps
+        )
 
     def _stage_predict(self, est, Z):
         pred = np.asarray(est.predict(Z), dtype=np.float64)
@@ -461,16 +475,15 @@ class HybridBoostingRegressor(
         Y = y[:, None] if self._y_1d else y
         self.n_outputs_ = Y.shape[1]
         w = step_width(X.shape[1], self.n_steps)
-        if (
-            self.stage_input == "window+prediction+residuals"
-            and self.n_steps > 1
-            and w < self.n_outputs_
-        ):
-            raise ValueError(
-                f"stage_input={self.stage_input!r} reads the state of each step from "
-                f"its first {self.n_outputs_} columns (one per output), but a step "
-                f"of X has {w} columns (n_steps={self.n_steps})."
-            )
+        if self.stage_input == "window+prediction+residuals" and self.n_steps > 1:
+            try:
+                self._layout(X.shape[1])
+            except ValueError as exc:
+                raise ValueError(
+                    f"stage_input={self.stage_input!r} reads the state of each step "
+                    f"from its first {self.n_outputs_} columns (one per output), but "
+                    f"a step of X has {w} columns (n_steps={self.n_steps}): {exc}"
+                ) from None
         train, val = self._split(X.shape[0])
         rng = check_random_state(self.random_state)
 

@@ -201,14 +201,10 @@ class BaseNeuralRegressor(
       order inside each block (only the order of the blocks is shuffled), and the
       validation loss is computed on the whole validation stretch at once.
 
-    For subclasses and for joint training (``HybridEnsembleRegressor``):
-    ``_make_module(n_features, n_outputs)`` returns a freshly initialised
-    :class:`torch.nn.Module` with the estimator's architecture hyperparameters
-    that maps standardised float32 rows of shape ``(n, n_features)`` to
-    ``(n, n_outputs)``. It draws its initial weights from torch's global random
-    generator (seed it, inside :func:`torch.random.fork_rng`, for repeatable
-    weights) and it needs no fitted state, so it can be called on an unfitted
-    estimator. This signature is stable.
+    For joint training (``HybridEnsembleRegressor``) and other torch code, the
+    public :meth:`make_module` returns the estimator's network as a fresh
+    :class:`torch.nn.Module`. Subclasses implement it through the hook
+    ``_make_module(n_features, n_outputs)`` (same signature and contract).
 
     Parameters
     ----------
@@ -282,6 +278,40 @@ class BaseNeuralRegressor(
     def _make_module(self, n_features, n_outputs):
         """A fresh torch module mapping standardised X to standardised y."""
         raise NotImplementedError
+
+    def make_module(self, n_features, n_outputs):
+        """A freshly initialised network with this estimator's architecture.
+
+        The stable contract for training the network inside other torch code
+        (:class:`~skhybrid.hybrid.HybridEnsembleRegressor` trains it jointly
+        with physics parameters). The module maps standardised rows of shape
+        ``(n, n_features)`` to ``(n, n_outputs)`` (float32 parameters; call
+        ``.double()`` for float64). It draws its initial weights from torch's
+        global random generator: seed it inside :func:`torch.random.fork_rng`
+        for repeatable weights. It needs no fitted state, so it can be called on
+        an unfitted estimator; only the architecture hyperparameters are used,
+        not the training settings.
+
+        Parameters
+        ----------
+        n_features : int
+            Columns of a row.
+        n_outputs : int
+            Outputs per row.
+
+        Returns
+        -------
+        module : torch.nn.Module
+            The network, in training mode.
+
+        Raises
+        ------
+        ValueError
+            When a hyperparameter is invalid or does not fit the data's shape.
+        """
+        self._validate_params()
+        self._check_architecture(n_features, n_outputs)
+        return self._make_module(n_features, n_outputs)
 
     def _check_architecture(self, n_features, n_outputs):
         """Raise a ValueError for hyperparameters that do not fit the data."""

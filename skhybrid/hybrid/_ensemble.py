@@ -300,7 +300,7 @@ class HybridEnsembleRegressor(
             dom.initialize(X, y)
         # Fail before training when the equations cannot run on torch.
         dom.torch_forward(
-            torch.as_tensor(X[:2]), torch.as_tensor(dom.pack_params(dom.params_))
+            torch.tensor(X[:2]), torch.as_tensor(dom.pack_params(dom.params_))
         )
         return dom
 
@@ -381,7 +381,7 @@ class HybridEnsembleRegressor(
         monitor = "valid_loss" if n_valid else "train_loss"
         stop = n - n_valid
         batch = stop if self.batch_size is None else self.batch_size
-        Xt = torch.as_tensor(X, device=self.device)
+        Xt = torch.tensor(X, device=self.device)
         Yt = torch.as_tensor(Y / self.y_scale_, device=self.device)
         if n_valid:
             train_split = predefined_split(Dataset(Xt[stop:], Yt[stop:]))
@@ -449,7 +449,7 @@ class HybridEnsembleRegressor(
         dom = self.domain_
         if theta.size == 0:
             return _std_dict(dom, theta, self.free_params_), np.zeros((0, 0))
-        Xt = torch.as_tensor(X)
+        Xt = torch.tensor(X)
         target = torch.as_tensor(Y - self._network_part(X))
 
         def residual(t):

@@ -199,9 +199,7 @@ class DomainModel(
         _, spec = self._set_up(X, y)
         self.result_ = None
         self.params_ = spec.to_dict(spec.x0)
-        self.params_std_ = spec.to_dict(
-            np.full(spec.n_free, np.nan), fixed_value=0.0
-        )
+        self.params_std_ = spec.to_dict(np.full(spec.n_free, np.nan), fixed_value=0.0)
         self.params_cov_ = np.full((spec.n_free, spec.n_free), np.nan)
         return self
 

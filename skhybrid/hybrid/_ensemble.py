@@ -523,7 +523,6 @@ class HybridEnsembleRegressor(
         return self.decompose(X).total
 
 
-
 class HybridModule(nn.Module):
     """Physics and network as one torch module, for the skorch engine.
 

@@ -24,6 +24,7 @@ from skhybrid.neural._base import (
 )
 from skhybrid.neural._callbacks import BatchIterator
 from skhybrid.neural._modules import ObjectiveLoss
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -121,6 +122,16 @@ class HybridEnsembleRegressor(
         Fraction of the rows, taken from the END (the most recent rows), whose
         loss drives the learning-rate schedule, early stopping and the choice of
         the kept epoch. 0 trains on all rows and monitors the training loss.
+    horizon : int, default=1
+        Steps of the training loss. 1 trains one step ahead. ``T > 1`` trains by
+        simulation error, as the networks do: from every row that starts ``T``
+        consecutive rows of one experiment (found in the data, see
+        :meth:`skhybrid.preprocessing.WindowLayout.horizon_starts`, with the
+        domain's ``n_steps``), physics plus network are rolled ``T`` steps in
+        torch, feeding back their own predictions with the measured inputs, and
+        the loss is the MSE over the horizon; gradients reach the physical
+        parameters through every step. Needs time-ordered windows and
+        ``objective="mse"``.
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops;
         ``None`` trains for ``max_epochs``.
@@ -229,6 +240,7 @@ class HybridEnsembleRegressor(
         "batch_size": [Interval(Integral, 2, None, closed="left"), None],
         "weight_decay": [Interval(Real, 0, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "horizon": [Interval(Integral, 1, None, closed="left")],
         "patience": [Interval(Integral, 1, None, closed="left"), None],
         "lr_patience": [Interval(Integral, 0, None, closed="left")],
         "lr_factor": [Interval(Real, 0, 1, closed="neither")],
@@ -252,6 +264,7 @@ class HybridEnsembleRegressor(
         batch_size=None,
         weight_decay=0.0,
         validation_fraction=0.2,
+        horizon=1,
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -271,6 +284,7 @@ class HybridEnsembleRegressor(
         self.batch_size = batch_size
         self.weight_decay = weight_decay
         self.validation_fraction = validation_fraction
+        self.horizon = horizon
         self.patience = patience
         self.lr_patience = lr_patience
         self.lr_factor = lr_factor
@@ -358,6 +372,11 @@ class HybridEnsembleRegressor(
         self.n_outputs_ = Y.shape[1]
         time_ordered = needs_time_order(self.objective)
         min_rows = self._check_rows(n)
+        if self.horizon > 1 and self.objective != "mse":
+            raise ValueError(
+                f"horizon={self.horizon} trains on simulated sub-sequences with "
+                f"objective='mse' only; got objective={self.objective!r}."
+            )
 
         dom = self._start_domain(X, y)
         self.domain_ = dom
@@ -378,11 +397,14 @@ class HybridEnsembleRegressor(
         self.y_scale_ = np.where(s > 1e-12 * fallback, s, fallback)
 
         n_valid = validation_rows(n, self.validation_fraction, min_rows)
-        monitor = "valid_loss" if n_valid else "train_loss"
-        stop = n - n_valid
-        batch = stop if self.batch_size is None else self.batch_size
         Xt = torch.tensor(X, device=self.device)
         Yt = torch.as_tensor(Y / self.y_scale_, device=self.device)
+        layout = None
+        if self.horizon > 1:
+            layout, Xt, Yt, n_valid = self._horizon_data(dom, X, Y, Yt, n_valid)
+        monitor = "valid_loss" if n_valid else "train_loss"
+        stop = Xt.shape[0] - n_valid
+        batch = stop if self.batch_size is None else self.batch_size
         if n_valid:
             train_split = predefined_split(Dataset(Xt[stop:], Yt[stop:]))
             # A Ljung-Box validation loss is the statistic of the whole stretch.
@@ -404,6 +426,8 @@ class HybridEnsembleRegressor(
                 self.x_scale_,
                 self.y_scale_,
             )
+            if layout is not None:
+                module = HybridRollout(module, layout, self.horizon)
             net = _Net(
                 module=module,
                 criterion=ObjectiveLoss,
@@ -432,7 +456,7 @@ class HybridEnsembleRegressor(
             # stopping) inside fit and restores the best state on the way out.
             net.fit(Xt[:stop], Yt[:stop])
         record_training(self, net)
-        hybrid = net.module_
+        hybrid = net.module_ if layout is None else net.module_.hybrid
         self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
         self.validation_scores_ = (
             [float(v) for v in net.history[:, "valid_loss"]] if n_valid else None
@@ -444,6 +468,32 @@ class HybridEnsembleRegressor(
         self._theta = theta
         self.params_std_, self.params_cov_ = self._standard_errors(X, Y, theta)
         return self
+
+    def _horizon_data(self, dom, X, Y, Yt, n_valid):
+        """Start windows with future inputs, and targets, for ``horizon`` steps."""
+        layout = WindowLayout.from_shapes(X.shape[1], Y.shape[1], n_steps=dom.n_steps)
+        h = self.horizon
+        starts = layout.horizon_starts(X, Y, h)
+        if len(starts) == 0:
+            raise ValueError(
+                f"horizon={h}: no {h} consecutive rows of X continue each other "
+                f"(row i + 1 is row i shifted by one step with y[i] as its newest "
+                f"state, in a layout of the domain's n_steps={dom.n_steps}); pass "
+                "time-ordered windows (skhybrid.preprocessing.make_windows) or "
+                "horizon=1."
+            )
+        future = starts[:, None] + np.arange(1, h)[None, :]
+        newest = X[:, X.shape[1] - layout.step_width :][:, layout.n_states :]
+        U = newest[future].reshape(len(starts), -1)
+        Z = torch.tensor(np.hstack([X[starts], U]), device=self.device)
+        targets = Yt[torch.as_tensor(starts[:, None] + np.arange(h)[None, :])]
+        targets = targets.reshape(len(starts), -1)
+        n_valid_starts = (
+            int(np.sum(starts + h - 1 >= X.shape[0] - n_valid)) if n_valid else 0
+        )
+        if n_valid_starts < 2 or len(starts) - n_valid_starts < 2:
+            n_valid_starts = 0
+        return layout, Z, targets, n_valid_starts
 
     def _standard_errors(self, X, Y, theta):
         dom = self.domain_
@@ -605,6 +655,58 @@ class HybridModule(nn.Module):
         """
         physics = self.domain.torch_forward(X, self.theta())
         return physics / self.y_scale + self.net((X - self.x_mean) / self.x_scale)
+
+
+class HybridRollout(nn.Module):
+    """Simulates ``horizon`` steps through a :class:`HybridModule`, for training.
+
+    The input row holds an unscaled start window followed by the raw inputs of
+    the next ``horizon - 1`` steps; the output is every step's prediction in
+    units of ``y_scale``, ``(n, horizon * n_outputs)``. The window moves in raw
+    units: the prediction enters as the newest state, the next input beside it
+    (:meth:`skhybrid.preprocessing.WindowLayout.shift`). Gradients flow through
+    the whole horizon into the network and the physical parameters.
+
+    Parameters
+    ----------
+    hybrid : HybridModule
+        Physics plus network.
+    layout : skhybrid.preprocessing.WindowLayout
+        The rows' layout.
+    horizon : int
+        Steps simulated from each start.
+    """
+
+    def __init__(self, hybrid, layout, horizon):
+        super().__init__()
+        self.hybrid = hybrid
+        self.layout = layout
+        self.horizon = horizon
+
+    def forward(self, Z):
+        """Roll ``horizon`` steps from each start window.
+
+        Parameters
+        ----------
+        Z : torch.Tensor of shape (n, n_features + (horizon - 1) * n_inputs)
+            Start windows and future inputs, unscaled.
+
+        Returns
+        -------
+        y : torch.Tensor of shape (n, horizon * n_outputs)
+            Every step's prediction divided by ``y_scale``.
+        """
+        n_features = self.layout.n_features
+        X = Z[:, :n_features]
+        U = Z[:, n_features:].reshape(Z.shape[0], self.horizon - 1, -1)
+        preds = []
+        for k in range(self.horizon):
+            pred = self.hybrid(X)
+            preds.append(pred)
+            if k < self.horizon - 1:
+                state = pred * self.hybrid.y_scale
+                X = self.layout.shift(X, state, U[:, k] if U.shape[2] else None)
+        return torch.cat(preds, dim=1)
 
 
 class _BoundTransform:

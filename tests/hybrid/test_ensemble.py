@@ -298,3 +298,45 @@ def test_cuda_without_a_device_raises(data):
 def test_bad_parameters_name_themselves(data, params, match):
     with pytest.raises(ValueError, match=match):
         ensemble(**params).fit(*data)
+
+
+def test_horizon_rollout_equals_free_run_simulation():
+    import torch
+
+    from skhybrid.hybrid._ensemble import HybridRollout
+    from skhybrid.preprocessing import WindowLayout
+
+    rng = np.random.default_rng(0)
+    Y, U = [], []
+    for _ in range(3):
+        u = np.repeat(rng.uniform(-1, 1, 6), 25)[:120, None]
+        x = np.zeros((120, 2))
+        for t in range(119):
+            p, v = x[t]
+            v2 = v + 0.05 * (-4 * p - 0.1 * v - p**3 + u[t, 0])
+            x[t + 1] = [p + 0.05 * v2, v2]
+        Y.append(x[:, :1] + 0.01 * rng.standard_normal((120, 1)))
+        U.append(u)
+    X, y = WindowLayout(1, 1, 3).make_rows(Y, U)
+    model = HybridEnsembleRegressor(
+        LinearStateSpaceModel(n_steps=3),
+        DenseRegressor(hidden_layer_sizes=(8,)),
+        horizon=4,
+        max_epochs=3,
+        batch_size=64,
+        random_state=0,
+    ).fit(X, y)
+    rollout = model.net_.module_
+    assert isinstance(rollout, HybridRollout)
+    start = 10
+    Z = np.concatenate([X[start], U[0][start + 3 : start + 6, 0]])
+    with torch.no_grad():
+        rollout.eval()
+        out = rollout(torch.as_tensor(Z[None, :])).numpy().ravel()
+    sim = model.simulate(U[0][: start + 7], Y[0][: start + 3])
+    assert_allclose(out * model.y_scale_, sim[start + 3 : start + 7, 0], rtol=1e-6)
+    with pytest.raises(ValueError, match="objective='mse' only"):
+        model.set_params(objective="ljung_box", batch_size=100).fit(X, y)
+    perm = np.random.default_rng(0).permutation(len(X))
+    with pytest.raises(ValueError, match="horizon=4: no 4 consecutive rows"):
+        model.set_params(objective="mse").fit(X[perm], y[perm])

@@ -1,6 +1,6 @@
 """Training overhead of DenseRegressor (skorch) against a plain PyTorch loop.
 
-Both train the same network (``DenseRegressor._make_module``, the paper's 10 x 256
+Both train the same network (``DenseRegressor.make_module``, the paper's 10 x 256
 perceptron by default) on the same standardised data, with Adam, the same learning
 rate and the same batch size, for the same number of epochs, in the same process.
 The wall time per epoch of ``DenseRegressor.fit`` (everything included: input
@@ -46,7 +46,7 @@ def plain_loop(est, X, y, epochs, validation_fraction, seed):
     X_train, y_train, X_valid, y_valid = Xt[:stop], yt[:stop], Xt[stop:], yt[stop:]
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
-        module = est._make_module(X.shape[1], 1)
+        module = est.make_module(X.shape[1], 1)
         optimizer = torch.optim.Adam(module.parameters(), lr=est.lr)
         loss_fn = torch.nn.MSELoss()
         for _ in range(epochs):

@@ -154,13 +154,7 @@ class DomainModel(
         X, y = validate_data(
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
-        y2 = y if y.ndim == 2 else y[:, None]
-        self._y_1d = y.ndim == 1
-        self.n_outputs_ = y2.shape[1]
-        self._check_layout(step_width(X.shape[1], self.n_steps), self.n_outputs_)
-        init = self._initial_params(X, y2)
-        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
-        self._spec = spec
+        y2, spec = self._set_up(X, y)
         if self.objective != "mse" and self.ljung_box_lags >= X.shape[0]:
             raise ValueError(
                 f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
@@ -174,6 +168,51 @@ class DomainModel(
             X, y2, spec, theta_hat
         )
         return self
+
+    def initialize(self, X, y):
+        """Set the parameters to their initial values, without fitting them.
+
+        A fit with zero iterations: the data's layout is checked as in
+        :meth:`fit` and ``params_`` are the initial values (``params_std_`` and
+        ``params_cov_`` are NaN, ``result_`` is None). The model then predicts,
+        and :meth:`torch_forward` runs, from there; joint training in
+        :class:`~skhybrid.hybrid.HybridEnsembleRegressor` with
+        ``warm_start_domain=False`` starts this way.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Next states (their shape sets ``n_outputs_``; some models derive
+            initial values from them).
+
+        Returns
+        -------
+        self : object
+            The model at its initial parameters.
+        """
+        self._validate_params()
+        X, y = validate_data(
+            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        _, spec = self._set_up(X, y)
+        self.result_ = None
+        self.params_ = spec.to_dict(spec.x0)
+        self.params_std_ = spec.to_dict(np.full(spec.n_free, np.nan), fixed_value=0.0)
+        self.params_cov_ = np.full((spec.n_free, spec.n_free), np.nan)
+        return self
+
+    def _set_up(self, X, y):
+        """Layout check and parameter spec from validated ``X`` and ``y``."""
+        y2 = y if y.ndim == 2 else y[:, None]
+        self._y_1d = y.ndim == 1
+        self.n_outputs_ = y2.shape[1]
+        self._check_layout(step_width(X.shape[1], self.n_steps), self.n_outputs_)
+        init = self._initial_params(X, y2)
+        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        self._spec = spec
+        return y2, spec
 
     def predict(self, X):
         """Predict with the fitted parameters.
@@ -222,6 +261,111 @@ class DomainModel(
         """Names of the parameters that ``fit`` adjusted (not in ``fixed``)."""
         check_is_fitted(self)
         return list(self._spec.free)
+
+    @property
+    def free_bounds_(self):
+        """Lower and upper bounds of the free-parameter vector.
+
+        A pair of float arrays of the length of :meth:`pack_params`'s vector
+        (``-inf`` / ``inf`` where a side is unbounded).
+        """
+        check_is_fitted(self)
+        return self._spec.lower.copy(), self._spec.upper.copy()
+
+    # -- the free-parameter vector and the torch forward ---------------------------
+    def pack_params(self, params):
+        """Pack the free parameters of a dict into one flat float64 vector.
+
+        Parameters
+        ----------
+        params : dict
+            Parameter name to value, as ``params_`` (fixed parameters, when
+            present, are ignored).
+
+        Returns
+        -------
+        theta : ndarray of shape (n_free_values,)
+            The free parameters in the order of ``free_params_``, array-valued
+            ones flattened (C order).
+        """
+        check_is_fitted(self)
+        spec = self._spec
+        missing = [k for k in spec.free if k not in params]
+        if missing:
+            raise ValueError(
+                f"params is missing the free parameters {missing}; expected the "
+                f"keys {spec.free}."
+            )
+        parts = []
+        for name in spec.free:
+            value = np.asarray(params[name], dtype=float)
+            if value.shape != spec.shapes[name]:
+                raise ValueError(
+                    f"params[{name!r}] has shape {value.shape}; expected "
+                    f"{spec.shapes[name]}."
+                )
+            parts.append(value.ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def unpack_params(self, theta):
+        """Unpack a free-parameter vector into ``{name: value}``, fixed ones included.
+
+        Parameters
+        ----------
+        theta : ndarray or torch.Tensor of shape (n_free_values,)
+            Free parameters laid out as :meth:`pack_params` returns them.
+
+        Returns
+        -------
+        params : dict
+            Every parameter; fixed ones at their ``params_`` values. For a torch
+            ``theta`` the values are tensors of its dtype and device (views of
+            ``theta``, so gradients flow); otherwise floats and NumPy arrays.
+        """
+        check_is_fitted(self)
+        spec = self._spec
+        n = int(theta.shape[0]) if theta.ndim == 1 else -1
+        if n != spec.n_free:
+            raise ValueError(
+                f"theta has shape {tuple(theta.shape)}; expected ({spec.n_free},), "
+                f"the free parameters {spec.free} flattened."
+            )
+        if hasattr(theta, "detach"):
+            return spec.to_dict(theta, xp=get_namespace(theta))
+        return spec.to_dict(np.asarray(theta, dtype=float))
+
+    def torch_forward(self, X, theta):
+        """The equations on torch tensors, differentiable in the free parameters.
+
+        The public contract for training the physics inside a torch model (as
+        :class:`~skhybrid.hybrid.HybridEnsembleRegressor` does): ``theta`` may be
+        a tensor that requires gradients (an unconstrained parameter mapped into
+        the bounds, for example), and the result is differentiable with respect
+        to it. Fixed parameters are held at their ``params_`` values. The model
+        must be fitted (or :meth:`initialize`-d) so that the parameters' names,
+        shapes and ``n_outputs_`` are known.
+
+        Parameters
+        ----------
+        X : torch.Tensor of shape (n_samples, n_features)
+            Windows of time steps, unscaled, in the dtype and on the device of
+            ``theta``.
+        theta : torch.Tensor of shape (n_free_values,)
+            Free parameters laid out as :meth:`pack_params` returns them.
+
+        Returns
+        -------
+        y_pred : torch.Tensor of shape (n_samples, n_outputs)
+            The equations' next state.
+
+        Raises
+        ------
+        ValueError
+            When the model's equations cannot run on torch.
+        """
+        check_is_fitted(self)
+        self._check_autograd()
+        return self.predict_with(X, self.unpack_params(theta))
 
     # -- fitting internals ---------------------------------------------------------
     def _resolved_bounds(self, init):
@@ -504,7 +648,9 @@ class _ParameterSpec:
                 if torch_theta:
                     import torch
 
-                    value = torch.as_tensor(value, dtype=theta.dtype)
+                    value = torch.as_tensor(
+                        value, dtype=theta.dtype, device=theta.device
+                    )
                 out[name] = value if (xp is not None or shape) else float(value)
                 continue
             size = int(np.prod(shape)) if shape else 1

@@ -174,7 +174,8 @@ class ParametricModel(DomainModel):
         if not self._takes_xp():
             name = getattr(self.func, "__name__", repr(self.func))
             raise ValueError(
-                f"jac='autograd' needs func to take an 'xp' keyword argument and "
+                "torch evaluation (jac='autograd', torch_forward, joint training) "
+                f"needs func to take an 'xp' keyword argument and "
                 f"use it for array operations; {name} does not take xp."
             )
 

@@ -1,18 +1,30 @@
 """HybridEnsembleRegressor: the parallel hybrid (the paper's section 3.2)."""
 
-import copy
 import math
 from numbers import Integral, Real
 
 import numpy as np
+import torch
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted
+from skorch.dataset import Dataset
+from skorch.helper import predefined_split
+from torch import nn
 
-from skhybrid.domain._base import DomainModel, _ParameterSpec
-from skhybrid.exceptions import TrainingDivergedError
-from skhybrid.losses import OBJECTIVES, needs_time_order, objective_value
-from skhybrid.neural._callbacks import check_divergence
+from skhybrid.domain._base import DomainModel
+from skhybrid.losses import OBJECTIVES, needs_time_order
+from skhybrid.neural._base import (
+    _Net,
+    check_device,
+    record_training,
+    rng_devices,
+    training_callbacks,
+    validation_rows,
+)
+from skhybrid.neural._callbacks import BatchIterator
+from skhybrid.neural._modules import ObjectiveLoss
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -43,56 +55,102 @@ class HybridEnsembleRegressor(
     :class:`~skhybrid.domain.DomainModel`), so gradients reach the physical
     parameters exactly.
 
-    Training:
+    Training runs on the networks' skorch engine (the protocol of
+    :class:`~skhybrid.neural.BaseNeuralRegressor`): physics and network are one
+    :class:`torch.nn.Module` whose parameters are the network's weights and the
+    physical parameters (as :class:`torch.nn.Parameter`), trained by one Adam.
 
-    - the domain parameters start from a least-squares fit of a clone of
-      ``domain`` (``warm_start_domain=True``) or from its initial values;
-    - bounds are respected by construction: a parameter bounded on both sides is
+    - The domain parameters start from a least-squares fit of a clone of
+      ``domain`` (``warm_start_domain=True``) or from its initial values
+      (:meth:`~skhybrid.domain.DomainModel.initialize`); the physics runs in
+      torch through :meth:`~skhybrid.domain.DomainModel.torch_forward`.
+    - Bounds are respected by construction: a parameter bounded on both sides is
       ``lower + (upper - lower) * sigmoid(z)``, on one side ``lower + a *
       softplus(z)`` (or ``upper - a * softplus(z)``), unbounded ``theta0 + a * z``,
       with ``a`` the parameter's starting scale, so Adam's steps are relative
-      changes; parameters in the domain's ``fixed`` are held;
-    - the network is ``neural._make_module(n_features, n_outputs)`` (any
-      :mod:`skhybrid.neural` estimator), run in float64 on standardised rows; its
-      output is scaled by ``s``, the standard deviation of the residual the
-      starting domain model leaves, so it starts as a correction of that size;
-    - the objective (:func:`skhybrid.losses.objective_value`) is evaluated on the
-      residual divided by ``s``; Adam with learning rate ``lr``, halved after 10
-      epochs without improvement, stops after ``patience`` epochs without
-      improvement of the training objective and keeps the best epoch's state.
+      changes; ``z`` is the trained tensor. Parameters in the domain's ``fixed``
+      are held.
+    - The network is ``neural.make_module(n_features, n_outputs)`` (any
+      :mod:`skhybrid.neural` estimator; its own training settings are not used),
+      run in float64 on standardised rows; its output is scaled by ``s``, the
+      standard deviation of the residual the starting domain model leaves, so it
+      starts as a correction of that size.
+    - The objective (:func:`skhybrid.losses.objective_value`) is evaluated on the
+      residual divided by ``s``. As for the networks, the last
+      ``validation_fraction`` of the rows (the most recent ones; never shuffled
+      in) is held out: its loss drives the learning-rate schedule (multiplied by
+      ``lr_factor`` after ``lr_patience`` epochs without improvement), early
+      stopping after ``patience`` epochs without improvement, and the choice of
+      the epoch whose state (network and physics) is kept. With
+      ``validation_fraction=0``, or too few rows for a split, the training loss
+      is monitored instead.
+    - Mini-batches of an epoch are of equal size (to one row); a Ljung-Box
+      objective trains on contiguous blocks of rows in time order and validates
+      on the whole validation stretch.
+    - A loss that becomes non-finite or blows up raises
+      :class:`~skhybrid.exceptions.TrainingDivergedError`; a Ctrl-C ends training
+      with a warning and keeps the best epoch so far. A failed refit leaves the
+      previously fitted model as it was.
 
     Parameters
     ----------
     domain : DomainModel
         The physics model; its equations must run on torch (a
         :class:`~skhybrid.domain.ParametricModel` whose ``func`` takes ``xp``).
-    neural : estimator with ``_make_module(n_features, n_outputs)``
+    neural : estimator with ``make_module(n_features, n_outputs)``
         Supplies the network architecture (for example a
         :class:`~skhybrid.neural.DenseRegressor`); its own training settings are
         not used.
-    objective : {"mse", "ljung_box", "mse+ljung_box"}, default="mse"
+    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, \
+            default="mse"
         Joint training objective. A Ljung-Box term assumes the rows are in time
         order and trains on contiguous blocks of rows.
     ljung_box_lags : int, default=20
-        Lags of the Ljung-Box term; smaller than the rows of a batch.
+        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
     lr : float, default=0.01
         Initial learning rate of Adam.
     max_epochs : int, default=300
-        Most passes over the rows.
+        Most passes over the training rows.
     batch_size : int or None, default=None
         Rows per mini-batch (contiguous blocks for a Ljung-Box objective, shuffled
-        rows otherwise); ``None`` trains on all rows at once.
+        rows otherwise); ``None`` trains on all training rows at once.
     weight_decay : float, default=0.0
         L2 penalty on the network weights (not on the physical parameters).
-    patience : int, default=30
-        Epochs without improvement of the training objective before stopping.
+    validation_fraction : float, default=0.2
+        Fraction of the rows, taken from the END (the most recent rows), whose
+        loss drives the learning-rate schedule, early stopping and the choice of
+        the kept epoch. 0 trains on all rows and monitors the training loss.
+    horizon : int, default=1
+        Steps of the training loss. 1 trains one step ahead. ``T > 1`` trains by
+        simulation error, as the networks do: from every row that starts ``T``
+        consecutive rows of one experiment (found in the data, see
+        :meth:`skhybrid.preprocessing.WindowLayout.horizon_starts`, with the
+        domain's ``n_steps``), physics plus network are rolled ``T`` steps in
+        torch, feeding back their own predictions with the measured inputs, and
+        the loss is the MSE over the horizon; gradients reach the physical
+        parameters through every step. Needs time-ordered windows and
+        ``objective="mse"``.
+    patience : int or None, default=30
+        Epochs without improvement of the monitored loss before training stops;
+        ``None`` trains for ``max_epochs``.
+    lr_patience : int, default=10
+        Epochs without improvement before the learning rate is reduced.
+    lr_factor : float, default=0.5
+        Factor applied to the learning rate on a plateau.
     warm_start_domain : bool, default=True
         Start the physical parameters from a least-squares fit of ``domain``.
+    callbacks : list of skorch callbacks or None, default=None
+        Extra :mod:`skorch.callbacks`, run after the built-in ones.
     random_state : int, RandomState instance or None, default=None
         Seeds the initial weights and the batch order; the same seed gives
-        identical predictions. The global torch random state is left untouched.
+        identical predictions on CPU. The global torch random state is left
+        untouched.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where physics and network train and the network predicts.
+    verbose : int, default=0
+        0 is silent; 1 or more shows a progress bar and skorch's table of epochs.
 
     Attributes
     ----------
@@ -116,10 +174,20 @@ class HybridEnsembleRegressor(
         ``warm_start_domain``; its own ``params_`` are the starting values).
     module_ : torch.nn.Module
         The trained network (float64, eval mode).
+    net_ : skorch.NeuralNetRegressor
+        The trained skorch net; its ``module_`` holds the network (``net``) and
+        the unconstrained physical parameters (``z``).
+    history_ : skorch.History
+        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
+        split, ``history_[:, "valid_loss"]`` (residuals divided by ``s``).
     loss_curve_ : list of float
-        Training objective after each epoch.
+        Training objective of each epoch (mean over its batches).
+    validation_scores_ : list of float or None
+        Validation objective of each epoch; None without a validation split.
     n_epochs_ : int
         Number of epochs run.
+    best_epoch_ : int
+        Epoch (1-based) whose state was kept: the lowest monitored loss.
     n_features_in_ : int
         Number of columns of ``X``.
     n_outputs_ : int
@@ -163,7 +231,7 @@ class HybridEnsembleRegressor(
 
     _parameter_constraints = {
         "domain": [HasMethods(["fit", "predict_with"])],
-        "neural": [HasMethods(["_make_module"])],
+        "neural": [HasMethods(["make_module"])],
         "objective": [StrOptions(set(OBJECTIVES))],
         "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
         "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
@@ -171,9 +239,16 @@ class HybridEnsembleRegressor(
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
         "batch_size": [Interval(Integral, 2, None, closed="left"), None],
         "weight_decay": [Interval(Real, 0, None, closed="left")],
-        "patience": [Interval(Integral, 1, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "horizon": [Interval(Integral, 1, None, closed="left")],
+        "patience": [Interval(Integral, 1, None, closed="left"), None],
+        "lr_patience": [Interval(Integral, 0, None, closed="left")],
+        "lr_factor": [Interval(Real, 0, 1, closed="neither")],
         "warm_start_domain": ["boolean"],
+        "callbacks": [list, None],
         "random_state": ["random_state"],
+        "device": [StrOptions({"cpu", "cuda"})],
+        "verbose": ["verbose"],
     }
 
     def __init__(
@@ -188,9 +263,16 @@ class HybridEnsembleRegressor(
         max_epochs=300,
         batch_size=None,
         weight_decay=0.0,
+        validation_fraction=0.2,
+        horizon=1,
         patience=30,
+        lr_patience=10,
+        lr_factor=0.5,
         warm_start_domain=True,
+        callbacks=None,
         random_state=None,
+        device="cpu",
+        verbose=0,
     ):
         self.domain = domain
         self.neural = neural
@@ -201,9 +283,16 @@ class HybridEnsembleRegressor(
         self.max_epochs = max_epochs
         self.batch_size = batch_size
         self.weight_decay = weight_decay
+        self.validation_fraction = validation_fraction
+        self.horizon = horizon
         self.patience = patience
+        self.lr_patience = lr_patience
+        self.lr_factor = lr_factor
         self.warm_start_domain = warm_start_domain
+        self.callbacks = callbacks
         self.random_state = random_state
+        self.device = device
+        self.verbose = verbose
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -212,33 +301,41 @@ class HybridEnsembleRegressor(
 
     # -- set-up --------------------------------------------------------------------
     def _start_domain(self, X, y):
-        """Domain clone, its parameter spec and the starting free vector."""
+        """A clone of ``domain`` at the starting parameters (fitted or initial)."""
         if not isinstance(self.domain, DomainModel):
             raise TypeError(
                 "domain must be a skhybrid.domain.DomainModel (its equations run on "
                 f"torch); got {type(self.domain).__name__}."
             )
         dom = clone(self.domain)
-        dom._check_autograd()
         if self.warm_start_domain:
             dom.fit(X, y)
-            spec, params = dom._spec, dom.params_
         else:
-            y2 = y if y.ndim == 2 else y[:, None]
-            dom._y_1d = y.ndim == 1
-            dom.n_outputs_ = y2.shape[1]
-            dom.n_features_in_ = X.shape[1]
-            dom._check_layout(X.shape[1] // dom.n_steps, dom.n_outputs_)
-            init = dom._initial_params(X, y2)
-            spec = _ParameterSpec(init, dom.fixed, dom._resolved_bounds(init))
-            dom._spec = spec
-            params = spec.to_dict(spec.x0)
-        theta0 = (
-            np.concatenate([np.ravel(params[k]) for k in spec.free]).astype(float)
-            if spec.free
-            else np.zeros(0)
+            dom.initialize(X, y)
+        # Fail before training when the equations cannot run on torch.
+        dom.torch_forward(
+            torch.tensor(X[:2]), torch.as_tensor(dom.pack_params(dom.params_))
         )
-        return dom, spec, theta0
+        return dom
+
+    def _check_rows(self, n_samples):
+        """Ljung-Box objectives need blocks longer than their lags."""
+        if not needs_time_order(self.objective):
+            return 2
+        min_rows = self.ljung_box_lags + 1
+        if self.batch_size is not None and self.batch_size <= self.ljung_box_lags:
+            raise ValueError(
+                f"batch_size={self.batch_size} must be larger than "
+                f"ljung_box_lags={self.ljung_box_lags}: objective="
+                f"{self.objective!r} computes autocorrelations within each "
+                "block of batch_size rows."
+            )
+        if n_samples < min_rows:
+            raise ValueError(
+                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
+                f"number of samples, n_samples={n_samples}."
+            )
+        return min_rows
 
     # -- fit -----------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
@@ -249,7 +346,8 @@ class HybridEnsembleRegressor(
         ----------
         X : array-like of shape (n_samples, n_features)
             Windows of time steps (see :mod:`skhybrid.preprocessing`), in time
-            order for a Ljung-Box objective.
+            order: the last ``validation_fraction`` of them monitor training, and
+            a Ljung-Box objective trains on contiguous blocks.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Next states.
 
@@ -258,8 +356,6 @@ class HybridEnsembleRegressor(
         self : HybridEnsembleRegressor
             The fitted model.
         """
-        import torch
-
         X, y = validate_data(
             self,
             X,
@@ -269,23 +365,25 @@ class HybridEnsembleRegressor(
             dtype=np.float64,
             ensure_min_samples=2,
         )
+        check_device(self.device)
         n, n_features = X.shape
         self._y_1d = y.ndim == 1
         Y = y[:, None] if self._y_1d else y
         self.n_outputs_ = Y.shape[1]
         time_ordered = needs_time_order(self.objective)
-        batch = n if self.batch_size is None else min(self.batch_size, n)
-        if time_ordered and self.ljung_box_lags >= batch:
+        min_rows = self._check_rows(n)
+        if self.horizon > 1 and self.objective != "mse":
             raise ValueError(
-                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the rows "
-                f"of a batch ({batch}: batch_size={self.batch_size}, n_samples={n})."
+                f"horizon={self.horizon} trains on simulated sub-sequences with "
+                f"objective='mse' only; got objective={self.objective!r}."
             )
 
-        dom, spec, theta0 = self._start_domain(X, y)
-        self.domain_, self._spec = dom, spec
-        self.params_init_ = spec.to_dict(theta0)
-        self.free_params_ = list(spec.free)
-        self._transform = _BoundTransform(theta0, spec.lower, spec.upper)
+        dom = self._start_domain(X, y)
+        self.domain_ = dom
+        self.params_init_ = dict(dom.params_)
+        self.free_params_ = dom.free_params_
+        theta0 = dom.pack_params(dom.params_)
+        lower, upper = dom.free_bounds_
 
         self.x_mean_ = X.mean(axis=0)
         x_scale = X.std(axis=0)
@@ -298,132 +396,135 @@ class HybridEnsembleRegressor(
         fallback = np.where(fallback > 0, fallback, 1.0)
         self.y_scale_ = np.where(s > 1e-12 * fallback, s, fallback)
 
-        rng = check_random_state(self.random_state)
-        seed = int(rng.randint(np.iinfo(np.int32).max))
-        with torch.random.fork_rng(devices=[]):
+        n_valid = validation_rows(n, self.validation_fraction, min_rows)
+        Xt = torch.tensor(X, device=self.device)
+        Yt = torch.as_tensor(Y / self.y_scale_, device=self.device)
+        layout = None
+        if self.horizon > 1:
+            layout, Xt, Yt, n_valid = self._horizon_data(dom, X, Y, Yt, n_valid)
+        monitor = "valid_loss" if n_valid else "train_loss"
+        stop = Xt.shape[0] - n_valid
+        batch = stop if self.batch_size is None else self.batch_size
+        if n_valid:
+            train_split = predefined_split(Dataset(Xt[stop:], Yt[stop:]))
+            # A Ljung-Box validation loss is the statistic of the whole stretch.
+            valid_batch = n_valid if time_ordered else batch
+        else:
+            train_split, valid_batch = None, batch
+
+        seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
+        with torch.random.fork_rng(devices=rng_devices(self.device)):
             torch.manual_seed(seed)
-            module = self.neural._make_module(n_features, self.n_outputs_)
-        module = module.double()
-
-        Xt = torch.tensor(X)
-        Xs = torch.as_tensor((X - self.x_mean_) / self.x_scale_)
-        Yt = torch.tensor(Y)
-        scale = torch.as_tensor(self.y_scale_)
-        z = torch.nn.Parameter(torch.as_tensor(self._transform.z0.copy()))
-        groups = [
-            {"params": list(module.parameters()), "weight_decay": self.weight_decay}
-        ]
-        if z.numel():
-            groups.append({"params": [z], "weight_decay": 0.0})
-        optimizer = torch.optim.Adam(groups, lr=self.lr)
-        scheduler = torch.optim.lr_scheduler.ReduceLROnPlateau(
-            optimizer, factor=0.5, patience=10
-        )
-
-        def loss_on(idx):
-            if isinstance(idx, np.ndarray):
-                idx = torch.as_tensor(idx)
-            theta = self._transform.to_theta(z, torch)
-            params = spec.to_dict(theta, xp=_torch_namespace(Xt))
-            y_dom = dom.predict_with(Xt[idx], params)
-            y_nn = module(Xs[idx]) * scale
-            r = (Yt[idx] - y_dom - y_nn) / scale
-            return objective_value(
-                r,
-                self.objective,
-                lags=self.ljung_box_lags,
-                ljung_box_weight=self.ljung_box_weight,
+            network = self.neural.make_module(n_features, self.n_outputs_)
+            module = HybridModule(
+                dom,
+                network.double(),
+                theta0,
+                lower,
+                upper,
+                self.x_mean_,
+                self.x_scale_,
+                self.y_scale_,
             )
-
-        self.loss_curve_ = []
-        best, best_state, since_best = math.inf, None, 0
-        module.train()
-        for epoch in range(self.max_epochs):
-            for idx in _batches(n, batch, time_ordered, rng):
-                optimizer.zero_grad()
-                loss = loss_on(idx)
-                if not torch.isfinite(loss):
-                    raise TrainingDivergedError(
-                        f"HybridEnsembleRegressor: the training objective became "
-                        f"{float(loss)} in epoch {epoch + 1}; lower the learning rate "
-                        f"(got lr={self.lr}) or check the domain equations for "
-                        "overflow at the starting parameters."
-                    )
-                loss.backward()
-                optimizer.step()
-            module.eval()
-            with torch.no_grad():
-                epoch_loss = float(loss_on(slice(None)))
-            module.train()
-            if not math.isfinite(epoch_loss):
-                raise TrainingDivergedError(
-                    f"HybridEnsembleRegressor: the training objective became "
-                    f"{epoch_loss} after epoch {epoch + 1}; lower the learning rate "
-                    f"(got lr={self.lr})."
-                )
-            check_divergence(
-                epoch_loss,
-                self.loss_curve_[0] if self.loss_curve_ else None,
-                name="HybridEnsembleRegressor's training objective",
-                epoch=epoch + 1,
+            if layout is not None:
+                module = HybridRollout(module, layout, self.horizon)
+            net = _Net(
+                module=module,
+                criterion=ObjectiveLoss,
+                criterion__objective=self.objective,
+                criterion__lags=self.ljung_box_lags,
+                criterion__ljung_box_weight=self.ljung_box_weight,
+                optimizer=torch.optim.Adam,
+                optimizer__param_groups=[
+                    ("net.*", {"weight_decay": self.weight_decay})
+                ],
                 lr=self.lr,
+                max_epochs=self.max_epochs,
+                batch_size=batch,
+                train_split=train_split,
+                iterator_train=BatchIterator,
+                iterator_train__shuffle=True,
+                iterator_train__contiguous=time_ordered,
+                iterator_valid=BatchIterator,
+                iterator_valid__contiguous=time_ordered,
+                iterator_valid__batch_size=valid_batch,
+                callbacks=training_callbacks(self, monitor),
+                device=self.device,
+                verbose=self.verbose,
             )
-            self.loss_curve_.append(epoch_loss)
-            scheduler.step(epoch_loss)
-            if epoch_loss < best:
-                best, since_best = epoch_loss, 0
-                best_state = (z.detach().clone(), copy.deepcopy(module.state_dict()))
-            else:
-                since_best += 1
-                if since_best >= self.patience:
-                    break
-        self.n_epochs_ = len(self.loss_curve_)
-        if best_state is not None:
-            with torch.no_grad():
-                z.copy_(best_state[0])
-            module.load_state_dict(best_state[1])
-        module.eval()
-        for p in module.parameters():
-            p.requires_grad_(False)
-        self.module_ = module
-
-        theta = self._transform.to_theta(z.detach(), torch).numpy().copy()
-        self.params_ = spec.to_dict(theta)
+            # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
+            # stopping) inside fit and restores the best state on the way out.
+            net.fit(Xt[:stop], Yt[:stop])
+        record_training(self, net)
+        hybrid = net.module_ if layout is None else net.module_.hybrid
+        self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
+        self.validation_scores_ = (
+            [float(v) for v in net.history[:, "valid_loss"]] if n_valid else None
+        )
+        self.module_ = hybrid.net
+        with torch.no_grad():
+            theta = hybrid.theta().cpu().numpy().copy()
+        self.params_ = dom.unpack_params(theta)
         self._theta = theta
         self.params_std_, self.params_cov_ = self._standard_errors(X, Y, theta)
         return self
 
-    def _standard_errors(self, X, Y, theta):
-        import torch
+    def _horizon_data(self, dom, X, Y, Yt, n_valid):
+        """Start windows with future inputs, and targets, for ``horizon`` steps."""
+        layout = WindowLayout.from_shapes(X.shape[1], Y.shape[1], n_steps=dom.n_steps)
+        h = self.horizon
+        starts = layout.horizon_starts(X, Y, h)
+        if len(starts) == 0:
+            raise ValueError(
+                f"horizon={h}: no {h} consecutive rows of X continue each other "
+                f"(row i + 1 is row i shifted by one step with y[i] as its newest "
+                f"state, in a layout of the domain's n_steps={dom.n_steps}); pass "
+                "time-ordered windows (skhybrid.preprocessing.make_windows) or "
+                "horizon=1."
+            )
+        future = starts[:, None] + np.arange(1, h)[None, :]
+        newest = X[:, X.shape[1] - layout.step_width :][:, layout.n_states :]
+        U = newest[future].reshape(len(starts), -1)
+        Z = torch.tensor(np.hstack([X[starts], U]), device=self.device)
+        targets = Yt[torch.as_tensor(starts[:, None] + np.arange(h)[None, :])]
+        targets = targets.reshape(len(starts), -1)
+        n_valid_starts = (
+            int(np.sum(starts + h - 1 >= X.shape[0] - n_valid)) if n_valid else 0
+        )
+        if n_valid_starts < 2 or len(starts) - n_valid_starts < 2:
+            n_valid_starts = 0
+        return layout, Z, targets, n_valid_starts
 
-        spec = self._spec
-        if spec.n_free == 0:
-            return spec.to_dict(np.zeros(0), fixed_value=0.0), np.zeros((0, 0))
+    def _standard_errors(self, X, Y, theta):
+        dom = self.domain_
+        if theta.size == 0:
+            return _std_dict(dom, theta, self.free_params_), np.zeros((0, 0))
         Xt = torch.tensor(X)
         target = torch.as_tensor(Y - self._network_part(X))
-        xp = _torch_namespace(Xt)
 
         def residual(t):
-            params = spec.to_dict(t, xp=xp)
-            return (target - self.domain_.predict_with(Xt, params)).reshape(-1)
+            return (target - dom.torch_forward(Xt, t)).reshape(-1)
 
         t = torch.as_tensor(theta)
         # Forward mode: one pass per parameter rather than one per residual.
         J = torch.func.jacfwd(residual)(t).detach().numpy()
         r = residual(t).detach().numpy()
-        dof = r.size - spec.n_free
+        dof = r.size - theta.size
         s2 = float(r @ r) / dof if dof > 0 else np.inf
         cov = np.linalg.pinv(J.T @ J) * s2
         std = np.sqrt(np.clip(np.diag(cov), 0, None))
-        return spec.to_dict(std, fixed_value=0.0), cov
+        return _std_dict(dom, std, self.free_params_), cov
 
     # -- predictions ---------------------------------------------------------------
     def _network_part(self, X):
-        import torch
-
-        Xs = torch.as_tensor((X - self.x_mean_) / self.x_scale_)
-        with torch.no_grad():
-            out = self.module_(Xs).numpy()
+        Xs = torch.as_tensor((X - self.x_mean_) / self.x_scale_, device=self.device)
+        training = self.module_.training
+        self.module_.eval()
+        try:
+            with torch.no_grad():
+                out = self.module_(Xs).cpu().numpy()
+        finally:
+            self.module_.train(training)
         return out * self.y_scale_
 
     def _shape(self, Y):
@@ -472,18 +573,155 @@ class HybridEnsembleRegressor(
         return self.decompose(X).total
 
 
+class HybridModule(nn.Module):
+    """Physics and network as one torch module, for the skorch engine.
+
+    ``forward(X)`` returns ``f(X; theta) / s + net((X - x_mean) / x_scale)``:
+    the prediction in units of ``s`` (the targets are divided by ``s`` for
+    training). ``theta`` is the bounded image of the trained tensor ``z`` (see
+    :meth:`theta`); fixed parameters stay in the domain model.
+
+    Parameters
+    ----------
+    domain : DomainModel
+        Fitted (or initialised) domain model; its
+        :meth:`~skhybrid.domain.DomainModel.torch_forward` evaluates the physics.
+    net : torch.nn.Module
+        The network on standardised rows (float64).
+    theta0 : ndarray of shape (n_free_values,)
+        Starting free parameters.
+    lower, upper : ndarray of shape (n_free_values,)
+        Their bounds (infinite where a side is open).
+    x_mean, x_scale : ndarray of shape (n_features,)
+        Standardisation of the network's input.
+    y_scale : ndarray of shape (n_outputs,)
+        The scale ``s`` of the targets and the network's output.
+    """
+
+    def __init__(self, domain, net, theta0, lower, upper, x_mean, x_scale, y_scale):
+        super().__init__()
+        self.domain = domain
+        self.net = net
+        t = _BoundTransform(theta0, lower, upper)
+        self.z = nn.Parameter(torch.as_tensor(t.z0, dtype=torch.float64))
+        for name, value in (
+            ("lower", t.lower),
+            ("upper", t.upper),
+            ("theta0", t.theta0),
+            ("a_side", t.a_side),
+            ("a_free", t.a_free),
+            ("x_mean", x_mean),
+            ("x_scale", x_scale),
+            ("y_scale", y_scale),
+        ):
+            self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
+        for name in ("both", "lo_only", "hi_only"):
+            self.register_buffer(name, torch.as_tensor(getattr(t, name)))
+
+    def theta(self):
+        """The free physical parameters, inside their bounds.
+
+        Returns
+        -------
+        theta : torch.Tensor of shape (n_free_values,)
+            Differentiable in ``z``.
+        """
+        z = self.z
+        both = self.lower + (self.upper - self.lower) * torch.sigmoid(z)
+        soft = nn.functional.softplus(z) * self.a_side
+        free = self.theta0 + self.a_free * z
+        return torch.where(
+            self.both,
+            both,
+            torch.where(
+                self.lo_only,
+                self.lower + soft,
+                torch.where(self.hi_only, self.upper - soft, free),
+            ),
+        )
+
+    def forward(self, X):
+        """Physics plus network, in units of ``y_scale``.
+
+        Parameters
+        ----------
+        X : torch.Tensor of shape (n_samples, n_features)
+            Unscaled rows (float64).
+
+        Returns
+        -------
+        y : torch.Tensor of shape (n_samples, n_outputs)
+            The prediction divided by ``y_scale``.
+        """
+        physics = self.domain.torch_forward(X, self.theta())
+        return physics / self.y_scale + self.net((X - self.x_mean) / self.x_scale)
+
+
+class HybridRollout(nn.Module):
+    """Simulates ``horizon`` steps through a :class:`HybridModule`, for training.
+
+    The input row holds an unscaled start window followed by the raw inputs of
+    the next ``horizon - 1`` steps; the output is every step's prediction in
+    units of ``y_scale``, ``(n, horizon * n_outputs)``. The window moves in raw
+    units: the prediction enters as the newest state, the next input beside it
+    (:meth:`skhybrid.preprocessing.WindowLayout.shift`). Gradients flow through
+    the whole horizon into the network and the physical parameters.
+
+    Parameters
+    ----------
+    hybrid : HybridModule
+        Physics plus network.
+    layout : skhybrid.preprocessing.WindowLayout
+        The rows' layout.
+    horizon : int
+        Steps simulated from each start.
+    """
+
+    def __init__(self, hybrid, layout, horizon):
+        super().__init__()
+        self.hybrid = hybrid
+        self.layout = layout
+        self.horizon = horizon
+
+    def forward(self, Z):
+        """Roll ``horizon`` steps from each start window.
+
+        Parameters
+        ----------
+        Z : torch.Tensor of shape (n, n_features + (horizon - 1) * n_inputs)
+            Start windows and future inputs, unscaled.
+
+        Returns
+        -------
+        y : torch.Tensor of shape (n, horizon * n_outputs)
+            Every step's prediction divided by ``y_scale``.
+        """
+        n_features = self.layout.n_features
+        X = Z[:, :n_features]
+        U = Z[:, n_features:].reshape(Z.shape[0], self.horizon - 1, -1)
+        preds = []
+        for k in range(self.horizon):
+            pred = self.hybrid(X)
+            preds.append(pred)
+            if k < self.horizon - 1:
+                state = pred * self.hybrid.y_scale
+                X = self.layout.shift(X, state, U[:, k] if U.shape[2] else None)
+        return torch.cat(preds, dim=1)
+
+
 class _BoundTransform:
     """Map an unconstrained vector ``z`` to parameters inside their bounds."""
 
     def __init__(self, theta0, lower, upper):
         theta0 = np.asarray(theta0, dtype=float)
+        lower = np.asarray(lower, dtype=float)
+        upper = np.asarray(upper, dtype=float)
         lo_ok, hi_ok = np.isfinite(lower), np.isfinite(upper)
         self.lower = np.where(lo_ok, lower, 0.0)
         self.upper = np.where(hi_ok, upper, 0.0)
         self.both = lo_ok & hi_ok
         self.lo_only = lo_ok & ~hi_ok
         self.hi_only = hi_ok & ~lo_ok
-        self.free = ~lo_ok & ~hi_ok
         self.theta0 = theta0
         span = np.where(self.both, self.upper - self.lower, 1.0)
         frac = np.clip((theta0 - self.lower) / span, 1e-6, 1 - 1e-6)
@@ -498,43 +736,11 @@ class _BoundTransform:
         self.a_free = np.where(np.abs(theta0) > 0, np.abs(theta0), 1.0)
         self.z0 = np.where(self.both, np.log(frac / (1 - frac)), 0.0)
 
-    def to_theta(self, z, torch):
-        f = lambda a: torch.as_tensor(a, dtype=z.dtype)  # noqa: E731
-        both = f(self.lower) + (f(self.upper) - f(self.lower)) * torch.sigmoid(z)
-        soft = torch.nn.functional.softplus(z) * f(self.a_side)
-        lo = f(self.lower) + soft
-        hi = f(self.upper) - soft
-        free = f(self.theta0) + f(self.a_free) * z
-        return torch.where(
-            f(self.both).bool(),
-            both,
-            torch.where(
-                f(self.lo_only).bool(),
-                lo,
-                torch.where(f(self.hi_only).bool(), hi, free),
-            ),
-        )
 
-
-def _torch_namespace(tensor):
-    from skhybrid.utils._array_api import get_namespace
-
-    return get_namespace(tensor)
-
-
-def _batches(n, batch, contiguous, rng):
-    """Row indices of each mini-batch of one epoch."""
-    if batch >= n:
-        return [slice(None)]
-    if contiguous:
-        n_blocks = max(1, n // batch)
-        edges = np.linspace(0, n, n_blocks + 1).astype(int)
-        order = rng.permutation(n_blocks)
-        return [slice(int(edges[i]), int(edges[i + 1])) for i in order]
-    # Rows spread evenly over ceil(n / batch) batches (sizes differ by at most
-    # one), as the networks' BatchIterator does: no tiny remainder batch whose one
-    # noisy step per epoch could decide the result.
-    perm = rng.permutation(n)
-    n_batches = max(1, min(-(-n // batch), n // 2))  # batch norm needs 2 rows
-    edges = [(i * n) // n_batches for i in range(n_batches + 1)]
-    return [perm[edges[i] : edges[i + 1]] for i in range(n_batches)]
+def _std_dict(domain, std, free):
+    """Standard errors by name: 0 for fixed parameters."""
+    values = domain.unpack_params(std)
+    return {
+        k: v if k in free else (0.0 if np.ndim(v) == 0 else np.zeros(np.shape(v)))
+        for k, v in values.items()
+    }

@@ -163,6 +163,133 @@ def _progress_bar():
     return ProgressBar()
 
 
+def validation_rows(n_samples, validation_fraction, min_rows):
+    """Number of validation rows taken from the end of the rows (0 for none).
+
+    Parameters
+    ----------
+    n_samples : int
+        Rows of the data.
+    validation_fraction : float
+        Fraction of the rows to validate on.
+    min_rows : int
+        Fewest rows either part may have; below it there is no split.
+
+    Returns
+    -------
+    n_valid : int
+        Validation rows, the last ones; 0 trains on all rows.
+    """
+    n_valid = int(np.floor(n_samples * validation_fraction))
+    if n_valid < min_rows or n_samples - n_valid < min_rows:
+        return 0
+    return n_valid
+
+
+def training_callbacks(est, monitor):
+    """The built-in skorch callbacks of the training protocol, then the user's.
+
+    Parameters
+    ----------
+    est : estimator
+        Has ``lr``, ``lr_factor``, ``lr_patience``, ``patience``, ``max_epochs``,
+        ``verbose`` and ``callbacks``.
+    monitor : {"valid_loss", "train_loss"}
+        The loss that drives the schedule and early stopping.
+
+    Returns
+    -------
+    callbacks : list of (str, skorch.callbacks.Callback)
+        Divergence check, plateau schedule, early stopping (restoring the best
+        epoch), a progress bar when verbose, and ``est.callbacks``.
+    """
+    callbacks = [
+        ("divergence_check", DivergenceCheck(est.lr)),
+        (
+            "lr_scheduler",
+            LRScheduler(
+                policy=ReduceLROnPlateau,
+                monitor=monitor,
+                factor=est.lr_factor,
+                patience=est.lr_patience,
+            ),
+        ),
+        (
+            "early_stopping",
+            EarlyStopping(
+                monitor=monitor,
+                patience=est.patience or est.max_epochs + 1,
+                load_best=True,
+            ),
+        ),
+    ]
+    if est.verbose:
+        bar = _progress_bar()
+        if bar is not None:
+            callbacks.append(("progress_bar", bar))
+    for i, cb in enumerate(est.callbacks or []):
+        callbacks.append((f"user_{i}", cb))
+    return callbacks
+
+
+def record_training(est, net):
+    """Set ``net_``, ``history_``, ``n_epochs_``, ``best_epoch_``; warn on Ctrl-C.
+
+    Parameters
+    ----------
+    est : estimator
+        The estimator being fitted.
+    net : _Net
+        Its trained skorch net.
+    """
+    net.module_.eval()
+    est.net_ = net
+    est.history_ = net.history
+    est.n_epochs_ = sum("train_loss" in row for row in net.history)
+    est.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
+    if getattr(net, "interrupted_", False):
+        warnings.warn(
+            f"training of {type(est).__name__} was interrupted (Ctrl-C) after "
+            f"{est.n_epochs_} epochs; the model keeps the weights of its best "
+            f"epoch so far ({est.best_epoch_}).",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
+def check_device(device):
+    """Raise a ValueError for ``device='cuda'`` without a CUDA device.
+
+    Parameters
+    ----------
+    device : {"cpu", "cuda"}
+        The requested device.
+    """
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ValueError(
+            "device='cuda' but torch finds no CUDA device "
+            "(torch.cuda.is_available() is False); use device='cpu'."
+        )
+
+
+def rng_devices(device):
+    """The CUDA devices whose random state :func:`torch.random.fork_rng` forks.
+
+    Parameters
+    ----------
+    device : {"cpu", "cuda"}
+        The training device.
+
+    Returns
+    -------
+    devices : list of int
+        The current CUDA device for ``"cuda"``, none for ``"cpu"``.
+    """
+    if device == "cuda":
+        return [torch.cuda.current_device()]
+    return []
+
+
 class BaseNeuralRegressor(
     SimulatorMixin,
     TransactionalFitMixin,
@@ -201,14 +328,10 @@ class BaseNeuralRegressor(
       order inside each block (only the order of the blocks is shuffled), and the
       validation loss is computed on the whole validation stretch at once.
 
-    For subclasses and for joint training (``HybridEnsembleRegressor``):
-    ``_make_module(n_features, n_outputs)`` returns a freshly initialised
-    :class:`torch.nn.Module` with the estimator's architecture hyperparameters
-    that maps standardised float32 rows of shape ``(n, n_features)`` to
-    ``(n, n_outputs)``. It draws its initial weights from torch's global random
-    generator (seed it, inside :func:`torch.random.fork_rng`, for repeatable
-    weights) and it needs no fitted state, so it can be called on an unfitted
-    estimator. This signature is stable.
+    For joint training (``HybridEnsembleRegressor``) and other torch code, the
+    public :meth:`make_module` returns the estimator's network as a fresh
+    :class:`torch.nn.Module`. Subclasses implement it through the hook
+    ``_make_module(n_features, n_outputs)`` (same signature and contract).
 
     Parameters
     ----------
@@ -282,6 +405,40 @@ class BaseNeuralRegressor(
     def _make_module(self, n_features, n_outputs):
         """A fresh torch module mapping standardised X to standardised y."""
         raise NotImplementedError
+
+    def make_module(self, n_features, n_outputs):
+        """A freshly initialised network with this estimator's architecture.
+
+        The stable contract for training the network inside other torch code
+        (:class:`~skhybrid.hybrid.HybridEnsembleRegressor` trains it jointly
+        with physics parameters). The module maps standardised rows of shape
+        ``(n, n_features)`` to ``(n, n_outputs)`` (float32 parameters; call
+        ``.double()`` for float64). It draws its initial weights from torch's
+        global random generator: seed it inside :func:`torch.random.fork_rng`
+        for repeatable weights. It needs no fitted state, so it can be called on
+        an unfitted estimator; only the architecture hyperparameters are used,
+        not the training settings.
+
+        Parameters
+        ----------
+        n_features : int
+            Columns of a row.
+        n_outputs : int
+            Outputs per row.
+
+        Returns
+        -------
+        module : torch.nn.Module
+            The network, in training mode.
+
+        Raises
+        ------
+        ValueError
+            When a hyperparameter is invalid or does not fit the data's shape.
+        """
+        self._validate_params()
+        self._check_architecture(n_features, n_outputs)
+        return self._make_module(n_features, n_outputs)
 
     def _check_architecture(self, n_features, n_outputs):
         """Raise a ValueError for hyperparameters that do not fit the data."""
@@ -357,16 +514,10 @@ class BaseNeuralRegressor(
 
     # -- helpers -------------------------------------------------------------------
     def _check_device(self):
-        if self.device == "cuda" and not torch.cuda.is_available():
-            raise ValueError(
-                "device='cuda' but torch finds no CUDA device "
-                "(torch.cuda.is_available() is False); use device='cpu'."
-            )
+        check_device(self.device)
 
     def _rng_devices(self):
-        if self.device == "cuda":
-            return [torch.cuda.current_device()]
-        return []
+        return rng_devices(self.device)
 
     def _to_tensor(self, array):
         return torch.as_tensor(
@@ -375,10 +526,7 @@ class BaseNeuralRegressor(
 
     def _split(self, n_samples, min_rows):
         """Number of validation rows taken from the end (0 for none)."""
-        n_valid = int(np.floor(n_samples * self.validation_fraction))
-        if n_valid < min_rows or n_samples - n_valid < min_rows:
-            return 0
-        return n_valid
+        return validation_rows(n_samples, self.validation_fraction, min_rows)
 
     # -- public API ----------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
@@ -455,32 +603,7 @@ class BaseNeuralRegressor(
         else:
             train_split, valid_batch_size = None, self.batch_size
 
-        callbacks = [
-            ("divergence_check", DivergenceCheck(self.lr)),
-            (
-                "lr_scheduler",
-                LRScheduler(
-                    policy=ReduceLROnPlateau,
-                    monitor=monitor,
-                    factor=self.lr_factor,
-                    patience=self.lr_patience,
-                ),
-            ),
-            (
-                "early_stopping",
-                EarlyStopping(
-                    monitor=monitor,
-                    patience=self.patience or self.max_epochs + 1,
-                    load_best=True,
-                ),
-            ),
-        ]
-        if self.verbose:
-            bar = _progress_bar()
-            if bar is not None:
-                callbacks.append(("progress_bar", bar))
-        for i, cb in enumerate(self.callbacks or []):
-            callbacks.append((f"user_{i}", cb))
+        callbacks = training_callbacks(self, monitor)
 
         criterion, criterion_kwargs = self._criterion()
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
@@ -514,19 +637,7 @@ class BaseNeuralRegressor(
             # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
             # stopping) inside fit and restores the best weights on the way out.
             net.fit(Xt, yt)
-        net.module_.eval()
-        self.net_ = net
-        self.history_ = net.history
-        self.n_epochs_ = sum("train_loss" in row for row in net.history)
-        self.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
-        if getattr(net, "interrupted_", False):
-            warnings.warn(
-                f"training of {type(self).__name__} was interrupted (Ctrl-C) after "
-                f"{self.n_epochs_} epochs; the model keeps the weights of its best "
-                f"epoch so far ({self.best_epoch_}).",
-                UserWarning,
-                stacklevel=2,
-            )
+        record_training(self, net)
         return self
 
     def _forward(self, module, X, mean, scale):

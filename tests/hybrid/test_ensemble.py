@@ -5,6 +5,7 @@ import pickle
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
+from skorch.callbacks import Callback
 
 from skhybrid.domain import LinearStateSpaceModel, ParametricModel
 from skhybrid.exceptions import TrainingDivergedError
@@ -192,12 +193,150 @@ def test_decomposition_display_from_ensemble(fitted, data, pyplot):
     assert {"domain", "neural", "total"} <= set(display.lines_)
 
 
-def test_ensemble_batches_are_of_equal_size():
-    from skhybrid.hybrid._ensemble import _batches
+class _BatchSizes(Callback):
+    def initialize(self):
+        self.sizes = []
+        return self
+
+    def on_batch_begin(self, net, batch=None, training=False, **kwargs):
+        if training:
+            self.sizes.append(len(batch[0]))
+
+
+class _CtrlCAtEpoch(Callback):
+    def __init__(self, epoch):
+        self.epoch = epoch
+
+    def on_epoch_end(self, net, **kwargs):
+        if len(net.history) == self.epoch:
+            raise KeyboardInterrupt
+
+
+def test_ensemble_batches_are_of_equal_size(data):
+    X, Y = data  # 800 rows: 640 train, 160 validate
+    sizes = _BatchSizes()
+    ensemble(max_epochs=2, callbacks=[sizes]).fit(X, Y)
+    # 640 rows at batch_size=256: three batches of 213-214 rows, not 256, 256, 128.
+    assert len(sizes.sizes) == 6 and sum(sizes.sizes[:3]) == 640
+    assert max(sizes.sizes) - min(sizes.sizes) <= 1
+
+
+def test_validation_slice_is_the_last_rows(data):
+    X, Y = data
+    model = ensemble(max_epochs=4, patience=None).fit(X, Y)
+    assert model.n_epochs_ == 4 == len(model.validation_scores_)
+    assert list(model.history_[:, "valid_loss"]) == model.validation_scores_
+    # The validation loss is the objective on the last 20 % of the rows.
+    stop = 640
+    valid = model.validation_scores_[model.best_epoch_ - 1]
+    r = (Y[stop:] - model.predict(X[stop:])) / model.y_scale_
+    assert_allclose(np.mean(r**2), valid, rtol=1e-6)
+    # Without a split the training loss is monitored.
+    alone = ensemble(max_epochs=2, validation_fraction=0.0).fit(X, Y)
+    assert alone.validation_scores_ is None
+    assert "valid_loss" not in alone.history_[-1]
+
+
+def test_early_stopping_on_validation_keeps_the_best_epoch(data):
+    X, Y = data
+    model = ensemble(max_epochs=200, patience=3, lr=0.05).fit(X, Y)
+    assert model.n_epochs_ < 200
+    scores = model.validation_scores_
+    assert model.best_epoch_ == int(np.argmin(scores)) + 1
+    assert model.n_epochs_ - model.best_epoch_ == 3
+
+
+def test_physics_parameters_are_parameters_of_one_module(fitted):
+    import torch
+
+    module = fitted.net_.module_
+    names = dict(module.named_parameters())
+    assert "z" in names and any(k.startswith("net.") for k in names)
+    with torch.no_grad():
+        theta = module.theta().numpy()
+    assert_allclose(theta, fitted.domain_.pack_params(fitted.params_))
+
+
+def test_ctrl_c_keeps_the_best_state_and_warns(data):
+    X, Y = data
+    model = ensemble(max_epochs=50, callbacks=[_CtrlCAtEpoch(3)])
+    with pytest.warns(UserWarning, match=r"interrupted \(Ctrl-C\) after 3 epochs"):
+        model.fit(X, Y)
+    assert model.n_epochs_ == 3
+    assert model.predict(X[:5]).shape == (5, 2)
+
+
+def test_diverging_refit_keeps_the_previous_model(data):
+    X, Y = data
+    model = ensemble(max_epochs=3).fit(X, Y)
+    before, params = model.predict(X), dict(model.params_)
+    model.set_params(lr=1e8)
+    with pytest.raises(TrainingDivergedError):
+        model.fit(X, Y)
+    assert_array_equal(model.predict(X), before)
+    assert model.params_ == params
+
+
+def test_cuda_without_a_device_raises(data):
+    import torch
+
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is present")
+    with pytest.raises(ValueError, match="device='cuda'"):
+        ensemble(device="cuda").fit(*data)
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"validation_fraction": 1.0}, "validation_fraction"),
+        ({"lr_factor": 2.0}, "lr_factor"),
+        ({"device": "tpu"}, "device"),
+        ({"neural": "dense"}, "neural"),
+    ],
+)
+def test_bad_parameters_name_themselves(data, params, match):
+    with pytest.raises(ValueError, match=match):
+        ensemble(**params).fit(*data)
+
+
+def test_horizon_rollout_equals_free_run_simulation():
+    import torch
+
+    from skhybrid.hybrid._ensemble import HybridRollout
+    from skhybrid.preprocessing import WindowLayout
 
     rng = np.random.default_rng(0)
-    for n, batch in [(3600, 512), (3520, 512), (1000, 999), (7, 2)]:
-        sizes = [len(b) for b in _batches(n, batch, False, rng)]
-        assert sum(sizes) == n and max(sizes) - min(sizes) <= 1 and min(sizes) >= 2
-    rows = np.concatenate(_batches(103, 10, False, rng))
-    np.testing.assert_array_equal(np.sort(rows), np.arange(103))
+    Y, U = [], []
+    for _ in range(3):
+        u = np.repeat(rng.uniform(-1, 1, 6), 25)[:120, None]
+        x = np.zeros((120, 2))
+        for t in range(119):
+            p, v = x[t]
+            v2 = v + 0.05 * (-4 * p - 0.1 * v - p**3 + u[t, 0])
+            x[t + 1] = [p + 0.05 * v2, v2]
+        Y.append(x[:, :1] + 0.01 * rng.standard_normal((120, 1)))
+        U.append(u)
+    X, y = WindowLayout(1, 1, 3).make_rows(Y, U)
+    model = HybridEnsembleRegressor(
+        LinearStateSpaceModel(n_steps=3),
+        DenseRegressor(hidden_layer_sizes=(8,)),
+        horizon=4,
+        max_epochs=3,
+        batch_size=64,
+        random_state=0,
+    ).fit(X, y)
+    rollout = model.net_.module_
+    assert isinstance(rollout, HybridRollout)
+    start = 10
+    Z = np.concatenate([X[start], U[0][start + 3 : start + 6, 0]])
+    with torch.no_grad():
+        rollout.eval()
+        out = rollout(torch.as_tensor(Z[None, :])).numpy().ravel()
+    sim = model.simulate(U[0][: start + 7], Y[0][: start + 3])
+    assert_allclose(out * model.y_scale_, sim[start + 3 : start + 7, 0], rtol=1e-6)
+    with pytest.raises(ValueError, match="objective='mse' only"):
+        model.set_params(objective="ljung_box", batch_size=100).fit(X, y)
+    perm = np.random.default_rng(0).permutation(len(X))
+    with pytest.raises(ValueError, match="horizon=4: no 4 consecutive rows"):
+        model.set_params(objective="mse").fit(X[perm], y[perm])

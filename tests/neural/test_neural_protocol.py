@@ -279,13 +279,23 @@ def test_make_module_contract(cls):
     est = _tiny(cls, hidden_layer_sizes=(5, 7)) if cls is not RNNRegressor else None
     est = est or _tiny(cls, n_steps=2)
     torch.manual_seed(0)
-    module = est._make_module(4, 3)
+    module = est.make_module(4, 3)
     assert isinstance(module, torch.nn.Module)
     module.train()
     out = module(torch.randn(10, 4))
     assert out.shape == (10, 3) and out.dtype == torch.float32
-    another = est._make_module(4, 3)
+    another = est.make_module(4, 3)
     to_vector = torch.nn.utils.parameters_to_vector
     assert not torch.equal(
         to_vector(module.parameters()), to_vector(another.parameters())
     )
+    # The public method runs the subclass hook: same weights from the same seed.
+    torch.manual_seed(1)
+    public = to_vector(est.make_module(4, 3).parameters())
+    torch.manual_seed(1)
+    assert torch.equal(public, to_vector(est._make_module(4, 3).parameters()))
+
+
+def test_make_module_checks_the_architecture():
+    with pytest.raises(ValueError, match="n_steps"):
+        RNNRegressor(n_steps=3).make_module(4, 1)

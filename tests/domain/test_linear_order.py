@@ -118,7 +118,7 @@ def test_order_needs_enough_steps():
 def test_refine_needs_mse():
     rng = np.random.default_rng(0)
     X, Y = make_windows(rng.standard_normal((80, 1)), n_steps=3)
-    with pytest.raises(ValueError, match="refine='simulation'.*objective"):
+    with pytest.raises(ValueError, match=r"refine='simulation'.*objective"):
         LinearStateSpaceModel(
             order=1, n_steps=3, refine="simulation", objective="ljung_box"
         ).fit(X, Y)

@@ -93,7 +93,7 @@ def test_increment_reads_newest_step_of_windows():
 def test_increment_needs_state_columns():
     rng = np.random.default_rng(0)
     X, y = rng.standard_normal((50, 1)), rng.standard_normal((50, 2))
-    with pytest.raises(ValueError, match="target='increment'.*n_features=1"):
+    with pytest.raises(ValueError, match=r"target='increment'.*n_features=1"):
         DenseRegressor(hidden_layer_sizes=(4,), target="increment").fit(X, y)
 
 
@@ -107,7 +107,7 @@ def test_cyclic_refuses_increment():
 def test_bad_target():
     rng = np.random.default_rng(0)
     X, y = rng.standard_normal((50, 2)), rng.standard_normal(50)
-    with pytest.raises(ValueError, match="'target'.*'delta'"):
+    with pytest.raises(ValueError, match=r"'target'.*'delta'"):
         DenseRegressor(hidden_layer_sizes=(4,), target="delta").fit(X, y)
 
 

@@ -1,4 +1,4 @@
-"""LinearStateSpaceModel: ``x(t+1) = A x(t) + B u(t) + c``."""
+"""LinearStateSpaceModel: ``x(t+1) = A x(t) + B u(t) + c``, ``y(t) = C x(t)``."""
 
 from numbers import Integral
 
@@ -6,7 +6,7 @@ import numpy as np
 
 from skhybrid.domain._base import DomainModel
 from skhybrid.preprocessing import step_width
-from skhybrid.utils._sklearn_compat import Interval, _fit_context
+from skhybrid.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["LinearStateSpaceModel"]
 
@@ -14,11 +14,31 @@ __all__ = ["LinearStateSpaceModel"]
 class LinearStateSpaceModel(DomainModel):
     """Discrete-time linear state-space model ``x(t+1) = A x(t) + B u(t) + c``.
 
-    The state ``x`` is the first ``n_outputs`` columns of the window's newest step
-    (the state width is ``y``'s number of columns) and the inputs ``u`` are the rest
-    of that step. With ``objective="mse"`` the fit is closed-form linear least
-    squares; the other objectives go through :func:`scipy.optimize.least_squares`
-    started from the closed-form solution.
+    With ``order=None`` the state ``x`` is the first ``n_outputs`` columns of the
+    window's newest step (the state width is ``y``'s number of columns, ``C`` is
+    the identity) and the inputs ``u`` are the rest of that step.
+
+    With ``order=n`` the model has ``n`` internal states, whatever the number of
+    outputs ``p``: it is an ARX model of ``L = n / p`` lags,
+    ``y(t+1) = sum_i A_i y(t+1-i) + sum_i B_i u(t+1-i) + c`` (``i = 1..L``),
+    realised in (block) observer canonical form::
+
+        x(t+1) = A x(t) + B u(t) + [c, 0, ..., 0],    y(t) = C x(t)
+        A = [[A_1, I, 0, ..., 0],        B = [B_1,     C = [I, 0, ..., 0]
+             [A_2, 0, I, ..., 0],             B_2,
+             ...                              ...
+             [A_L, 0, 0, ..., 0]]             B_L]
+
+    The newest ``L`` steps of a window determine the state exactly, so ``predict``
+    on windows of ``n_steps >= L`` steps is the one-step prediction of the state
+    space model, and free-run :meth:`simulate` is its simulation. A first-order
+    model of a single output (the default) cannot represent an oscillator;
+    ``order=2`` can.
+
+    With ``objective="mse"`` the fit is closed-form linear least squares (the ARX
+    fit, which is the one-step prediction-error fit); the other objectives and
+    robust losses refine it with :func:`scipy.optimize.least_squares` started
+    from the closed-form solution.
 
     Parameters
     ----------
@@ -46,23 +66,47 @@ class LinearStateSpaceModel(DomainModel):
     max_nfev : int or None, default=None
         Most residual evaluations.
     n_steps : int, default=1
-        Time steps per row; the model reads the newest.
+        Time steps per row; the model reads the newest (``order / n_outputs`` of
+        them with ``order`` set, so ``n_steps`` must be at least that).
+    order : int or None, default=None
+        Number of internal states. ``None`` uses the outputs themselves as the
+        state (``order = n_outputs``, one lag). Otherwise a multiple of
+        ``n_outputs``: ``order / n_outputs`` lags of outputs and inputs.
+    refine : {None, "simulation"}, default=None
+        ``"simulation"`` refines the closed-form (one-step, ARX) fit by the
+        simulation error inside each window: the oldest ``L`` steps set the
+        state, the model runs through the rest of the window with its inputs,
+        and :func:`scipy.optimize.least_squares` minimises the errors of every
+        simulated output of the window and of the target. With noise on the
+        measured outputs the ARX fit is biased (its equation error is coloured);
+        the simulation error over windows much longer than ``L`` steps is far
+        less so. Needs ``objective="mse"``; the longer the windows
+        (``n_steps``), the stronger the effect.
 
     Attributes
     ----------
-    A_ : ndarray of shape (n_outputs, n_outputs)
-        State matrix.
-    B_ : ndarray of shape (n_outputs, n_inputs)
+    A_ : ndarray of shape (n_states, n_states)
+        State matrix; ``n_states`` is ``order`` (``n_outputs`` when ``order`` is
+        None).
+    B_ : ndarray of shape (n_states, n_inputs)
         Input matrix.
-    c_ : ndarray of shape (n_outputs,)
-        Offset.
-    eigenvalues_ : ndarray of shape (n_outputs,)
-        Eigenvalues of ``A_``; the model is stable when all lie inside the unit
-        circle.
+    C_ : ndarray of shape (n_outputs, n_states)
+        Output matrix ``[I, 0, ..., 0]``.
+    c_ : ndarray of shape (n_states,)
+        Offset of the state equation.
+    eigenvalues_ : ndarray of shape (n_states,)
+        Eigenvalues of ``A_`` (the poles); the model is stable when all lie
+        inside the unit circle.
     is_stable_ : bool
         Whether every eigenvalue has modulus below 1.
+    n_states_ : int
+        Number of internal states.
     params_ : dict
-        ``{"A": A_, "B": B_, "c": c_}``.
+        The fitted parameters ``{"A", "B", "c"}``. With ``order=None`` they are
+        ``A_``, ``B_`` and ``c_``; with ``order`` set, ``"A"`` is the free first
+        block column ``[A_1; ...; A_L]`` of ``A_`` (shape ``(order, n_outputs)``),
+        ``"B"`` is ``B_`` and ``"c"`` the offset of the output equation (shape
+        ``(n_outputs,)``).
     params_std_ : dict
         Standard errors of every entry, same shapes.
     result_ : OptimizeResult or None
@@ -86,12 +130,27 @@ class LinearStateSpaceModel(DomainModel):
            [0. , 0.8]])
     >>> bool(model.is_stable_)
     True
+
+    A second-order model of one output, from windows of two steps:
+
+    >>> from skhybrid.preprocessing import make_windows
+    >>> u = rng.standard_normal(300)
+    >>> y = np.zeros(300)
+    >>> for t in range(2, 300):
+    ...     y[t] = 1.6 * y[t - 1] - 0.9 * y[t - 2] + 0.5 * u[t - 1]
+    >>> X, Y = make_windows(y[:, None], u[:, None], n_steps=2)
+    >>> model = LinearStateSpaceModel(order=2, n_steps=2).fit(X, Y)
+    >>> np.round(model.A_, 6)
+    array([[ 1.6,  1. ],
+           [-0.9,  0. ]])
     """
 
     _parameter_constraints = {
         **DomainModel._parameter_constraints,
         "n_inputs": [Interval(Integral, 0, None, closed="left"), None],
         "fit_intercept": ["boolean"],
+        "order": [Interval(Integral, 1, None, closed="left"), None],
+        "refine": [StrOptions({"simulation"}), None],
     }
 
     def __init__(
@@ -109,6 +168,8 @@ class LinearStateSpaceModel(DomainModel):
         f_scale=1.0,
         max_nfev=None,
         n_steps=1,
+        order=None,
+        refine=None,
     ):
         super().__init__(
             fixed=fixed,
@@ -124,6 +185,11 @@ class LinearStateSpaceModel(DomainModel):
         )
         self.n_inputs = n_inputs
         self.fit_intercept = fit_intercept
+        self.order = order
+        self.refine = refine
+
+    def _n_lags(self, n_outputs):
+        return 1 if self.order is None else self.order // n_outputs
 
     def _check_layout(self, n_step_features, n_outputs):
         n_inputs = n_step_features - n_outputs
@@ -138,23 +204,53 @@ class LinearStateSpaceModel(DomainModel):
                 f"n_inputs={self.n_inputs} but X has {n_step_features} columns per "
                 f"step and y has {n_outputs} outputs, that is {n_inputs} inputs."
             )
+        if self.order is not None:
+            if self.order % n_outputs:
+                raise ValueError(
+                    f"order={self.order} must be a multiple of the number of "
+                    f"outputs, {n_outputs}: the model has order / n_outputs lags of "
+                    "each output (observer canonical form)."
+                )
+            n_lags = self.order // n_outputs
+            if n_lags > self.n_steps:
+                raise ValueError(
+                    f"order={self.order} needs windows of at least {n_lags} steps "
+                    f"(order / n_outputs lags of {n_outputs} output(s)) but "
+                    f"n_steps={self.n_steps}; build rows with n_steps >= {n_lags}."
+                )
+        if self.refine is not None and self.objective != "mse":
+            raise ValueError(
+                f"refine={self.refine!r} minimises the simulation error by least "
+                f"squares; it needs objective='mse', got objective="
+                f"{self.objective!r}."
+            )
+
+    def _lagged_steps(self, X, n_lags):
+        """The newest ``n_lags`` steps of each row, newest first."""
+        width = step_width(X.shape[1], self.n_steps)
+        stop = X.shape[1]
+        return [X[:, stop - (i + 1) * width : stop - i * width] for i in range(n_lags)]
 
     def _closed_form(self, X, y):
-        step = X[:, X.shape[1] - step_width(X.shape[1], self.n_steps) :]
-        design = (
-            np.hstack([step, np.ones((X.shape[0], 1))]) if self.fit_intercept else step
-        )
-        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
         s = y.shape[1]
-        A, B = coef[:s].T, coef[s : step.shape[1]].T
+        n_lags = self._n_lags(s)
+        steps = self._lagged_steps(X, n_lags)
+        design = np.hstack(steps)
+        if self.fit_intercept:
+            design = np.hstack([design, np.ones((X.shape[0], 1))])
+        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+        w = steps[0].shape[1]
+        A = np.vstack([coef[i * w : i * w + s].T for i in range(n_lags)])
+        B = np.vstack([coef[i * w + s : (i + 1) * w].T for i in range(n_lags)])
         c = coef[-1] if self.fit_intercept else np.zeros(s)
         return A, B, c
 
     def _initial_params(self, X, y):
         s = y.shape[1]
         m = step_width(X.shape[1], self.n_steps) - s
+        n = s * self._n_lags(s)
         if self.fixed:
-            zeros = {"A": np.zeros((s, s)), "B": np.zeros((s, m)), "c": np.zeros(s)}
+            zeros = {"A": np.zeros((n, s)), "B": np.zeros((n, m)), "c": np.zeros(s)}
         else:
             A, B, c = self._closed_form(X, y)
             zeros = {"A": A, "B": B, "c": c}
@@ -163,23 +259,82 @@ class LinearStateSpaceModel(DomainModel):
         return zeros
 
     def _equations(self, X, params, xp):
-        s = params["A"].shape[0]
-        step = X[:, X.shape[1] - step_width(X.shape[1], self.n_steps) :]
-        out = step[:, :s] @ params["A"].T + step[:, s:] @ params["B"].T
+        A, B = params["A"], params["B"]
+        s = A.shape[1]
+        out = None
+        for i, step in enumerate(self._lagged_steps(X, A.shape[0] // s)):
+            term = (
+                step[:, :s] @ A[i * s : (i + 1) * s].T
+                + step[:, s:] @ B[i * s : (i + 1) * s].T
+            )
+            out = term if out is None else out + term
         if "c" in params:
             out = out + params["c"]
         return out
 
+    def _window_simulation(self, X, params):
+        """Simulated outputs of every step after the oldest ``L``, and the target.
+
+        Returns ``(measured, simulated)``, lists of ``(n_samples, n_outputs)``
+        arrays of the in-window steps ``L..n_steps-1`` (``measured`` holds those
+        only; ``simulated`` holds one more, the prediction of the target).
+        """
+        A, B = params["A"], params["B"]
+        s = A.shape[1]
+        n_lags = A.shape[0] // s
+        width = step_width(X.shape[1], self.n_steps)
+        steps = [X[:, j * width : (j + 1) * width] for j in range(self.n_steps)]
+        ys = [step[:, :s] for step in steps]
+        us = [step[:, s:] for step in steps]
+        sim = list(ys[:n_lags])
+        for j in range(n_lags, self.n_steps + 1):
+            out = None
+            for i in range(1, n_lags + 1):
+                term = (
+                    sim[j - i] @ A[(i - 1) * s : i * s].T
+                    + us[j - i] @ B[(i - 1) * s : i * s].T
+                )
+                out = term if out is None else out + term
+            if "c" in params:
+                out = out + params["c"]
+            sim.append(out)
+        return ys[n_lags:], sim[n_lags:]
+
+    def _residual_vector(self, X, y, spec, xp):
+        if self.refine is None:
+            return super()._residual_vector(X, y, spec, xp)
+
+        def residuals(theta):
+            params = spec.to_dict(theta, xp=xp)
+            measured, simulated = self._window_simulation(X, params)
+            parts = [m - p for m, p in zip(measured, simulated[:-1], strict=True)]
+            parts.append(y - simulated[-1])
+            return xp.concat([xp.reshape(p, (-1,)) for p in parts])
+
+        return residuals
+
+    def _state_space(self, A, B, c):
+        """Observer canonical form ``(A_, B_, C_, c_)`` of the ARX coefficients."""
+        n, s = A.shape
+        A_ss = np.zeros((n, n))
+        A_ss[:, :s] = A
+        A_ss[: n - s, s:] = np.eye(n - s)
+        C = np.zeros((s, n))
+        C[:, :s] = np.eye(s)
+        c_ss = np.zeros(n)
+        c_ss[:s] = c
+        return A_ss, np.array(B, dtype=float), C, c_ss
+
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y):
-        """Fit ``A``, ``B`` and ``c``.
+        """Fit ``A``, ``B`` and ``c`` (and realise the state-space form).
 
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
-            Windows; the newest step is ``[x(t), u(t)]``.
+            Windows; each step is ``[y(t), u(t)]``.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
-            Next states ``x(t+1)``.
+            Next outputs ``y(t+1)``.
 
         Returns
         -------
@@ -187,16 +342,20 @@ class LinearStateSpaceModel(DomainModel):
             The fitted model.
         """
         super().fit(X, y)
-        self.A_ = np.asarray(self.params_["A"])
-        self.B_ = np.asarray(self.params_["B"])
-        self.c_ = np.asarray(self.params_.get("c", np.zeros(self.n_outputs_)))
+        self.A_, self.B_, self.C_, self.c_ = self._state_space(
+            np.asarray(self.params_["A"]),
+            np.asarray(self.params_["B"]),
+            np.asarray(self.params_.get("c", np.zeros(self.n_outputs_))),
+        )
+        self.n_states_ = self.A_.shape[0]
         self.eigenvalues_ = np.linalg.eigvals(self.A_)
         self.is_stable_ = bool(np.all(np.abs(self.eigenvalues_) < 1))
         return self
 
     def _least_squares(self, X, y, spec):
         if (
-            self.objective == "mse"
+            self.refine is None
+            and self.objective == "mse"
             and self.loss == "linear"
             and not self.fixed
             and not self.bounds

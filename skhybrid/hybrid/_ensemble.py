@@ -356,6 +356,13 @@ class HybridEnsembleRegressor(
         self : HybridEnsembleRegressor
             The fitted model.
         """
+        target = self.neural.get_params(deep=False).get("target", "state")
+        if target != "state":
+            raise ValueError(
+                "HybridEnsembleRegressor trains the network's module jointly with "
+                "the physics and adds their outputs; it needs a network with "
+                f"target='state', got neural with target={target!r}."
+            )
         X, y = validate_data(
             self,
             X,

@@ -77,6 +77,18 @@ TRAINING_PARAMETERS_DOC = """\
         inputs, and the loss is the MSE over the whole horizon (truncated
         back-propagation through time). Needs time-ordered windows and
         ``objective="mse"``; ``CyclicRegressor`` supports 1 only.
+    target : {"state", "increment"}, default="state"
+        What the network learns. ``"state"``: the next state ``y``.
+        ``"increment"``: the change ``y - x``, where ``x`` is the newest state of
+        the row (the first ``n_outputs`` columns of its newest step, see
+        :class:`~skhybrid.preprocessing.WindowLayout`); ``predict`` returns
+        ``x + network(X)``. For a slowly varying state (small time step) the
+        increment is a tiny fraction of the state and the network spends its
+        accuracy on it instead of on reproducing ``x``. A network without
+        ``n_steps`` (``DenseRegressor``) finds the window length from the rows
+        (the one under which consecutive rows continue each other, else 1). With
+        ``horizon > 1`` each simulated step adds the predicted increment to the
+        simulated state. ``CyclicRegressor`` supports ``"state"`` only.
     patience : int or None, default=30
         Epochs without improvement of the monitored loss before training stops
         (early stopping); ``None`` trains for ``max_epochs``.
@@ -356,6 +368,7 @@ class BaseNeuralRegressor(
         "device": [StrOptions({"cpu", "cuda"})],
         "target_scaling": [StrOptions({"per_output", "shared"})],
         "horizon": [Interval(Integral, 1, None, closed="left")],
+        "target": [StrOptions({"state", "increment"})],
         "verbose": ["verbose"],
     }
 
@@ -371,6 +384,7 @@ class BaseNeuralRegressor(
         validation_fraction=0.2,
         target_scaling="per_output",
         horizon=1,
+        target="state",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -388,6 +402,7 @@ class BaseNeuralRegressor(
         self.validation_fraction = validation_fraction
         self.target_scaling = target_scaling
         self.horizon = horizon
+        self.target = target
         self.patience = patience
         self.lr_patience = lr_patience
         self.lr_factor = lr_factor
@@ -443,6 +458,9 @@ class BaseNeuralRegressor(
     def _check_architecture(self, n_features, n_outputs):
         """Raise a ValueError for hyperparameters that do not fit the data."""
 
+    def _check_increment(self):
+        """Hook: networks that cannot learn increments raise a ValueError."""
+
     def _training_module(self, module):
         """What skorch trains: the module itself, or a wrapper around it."""
         return module
@@ -470,6 +488,8 @@ class BaseNeuralRegressor(
                 f"objective='mse' only; got objective={self.objective!r}."
             )
         n_steps = self.get_params(deep=False).get("n_steps")
+        if self._increment_layout is not None:
+            n_steps = self._increment_layout.n_steps
         if n_steps is None:
             # A network without n_steps (DenseRegressor) reads a flat row: find
             # the window length under which the rows continue each other most.
@@ -504,13 +524,56 @@ class BaseNeuralRegressor(
         newest = X[:, X.shape[1] - layout.step_width :][:, layout.n_states :]
         U = newest[future].reshape(len(starts), -1)
         Z = torch.cat([Xt[starts], self._to_tensor(U)], dim=1)
-        targets = yt[starts[:, None] + np.arange(h)[None, :]].reshape(len(starts), -1)
+        steps = starts[:, None] + np.arange(h)[None, :]
+        if self._increment_layout is None:
+            targets = yt[steps].reshape(len(starts), -1)
+        else:
+            # The rollout returns (simulated state - start's newest state) /
+            # y_scale_: its residuals are the simulation errors in the scale of
+            # the increments.
+            base = layout.newest_states(X[starts])
+            rel = (y[steps] - base[:, None, :]) / self.y_scale_
+            targets = self._to_tensor(rel.reshape(len(starts), -1))
         stop = X.shape[0] - n_valid
         n_valid_starts = int(np.sum(starts + h - 1 >= stop)) if n_valid else 0
         if n_valid_starts < 2 or len(starts) - n_valid_starts < 2:
             n_valid_starts = 0
         rollout = (layout, h, self.x_mean_, self.x_scale_, self.y_mean_, self.y_scale_)
+        rollout = (*rollout, self._increment_layout is not None)
         return rollout, Z, targets, n_valid_starts
+
+    def _find_increment_layout(self, X, y):
+        """The layout whose newest state ``target="increment"`` adds to."""
+        n_features, n_outputs = X.shape[1], y.shape[1]
+        n_steps = self.get_params(deep=False).get("n_steps")
+        if n_steps is None:
+            # A flat row (DenseRegressor): the window length under which the
+            # rows continue each other most, else one step.
+            candidates = [
+                k
+                for k in range(1, n_features + 1)
+                if n_features % k == 0 and n_features // k >= n_outputs
+            ]
+            counts = {
+                k: int(
+                    np.sum(
+                        WindowLayout.from_shapes(
+                            n_features, n_outputs, n_steps=k
+                        ).continues(X, y)
+                    )
+                )
+                for k in candidates
+            }
+            n_steps = max(counts, key=counts.get) if counts else 1
+        if n_features % n_steps or n_features // n_steps < n_outputs:
+            raise ValueError(
+                f"target='increment' adds the network's output to the newest "
+                f"state of each row, the first n_outputs={n_outputs} columns of "
+                f"its newest step, but a row of n_features={n_features} columns "
+                f"in n_steps={n_steps} step(s) cannot hold it; use "
+                "target='state' or rows that carry the state."
+            )
+        return WindowLayout.from_shapes(n_features, n_outputs, n_steps=n_steps)
 
     # -- helpers -------------------------------------------------------------------
     def _check_device(self):
@@ -576,8 +639,14 @@ class BaseNeuralRegressor(
                     f"the number of samples, n_samples={n_samples}."
                 )
 
+        self._increment_layout = None
+        y_train = y2
+        if self.target == "increment":
+            self._check_increment()
+            self._increment_layout = self._find_increment_layout(X, y2)
+            y_train = y2 - self._increment_layout.newest_states(X)
         x_scaler = StandardScaler().fit(X)
-        y_scaler = StandardScaler().fit(y2)
+        y_scaler = StandardScaler().fit(y_train)
         self.x_mean_, self.x_scale_ = x_scaler.mean_, x_scaler.scale_
         self.y_mean_, self.y_scale_ = y_scaler.mean_, y_scaler.scale_
         if self.target_scaling == "shared":
@@ -586,7 +655,7 @@ class BaseNeuralRegressor(
         self.n_outputs_ = n_outputs
         self._y_1d = y.ndim == 1
         Xt = self._to_tensor((X - self.x_mean_) / self.x_scale_)
-        yt = self._to_tensor((y2 - self.y_mean_) / self.y_scale_)
+        yt = self._to_tensor((y_train - self.y_mean_) / self.y_scale_)
 
         n_valid = self._split(n_samples, min_rows)
         monitor = "valid_loss" if n_valid else "train_loss"
@@ -696,6 +765,8 @@ class BaseNeuralRegressor(
         y_pred = self._forward(self._fitted_module(), X, self.x_mean_, self.x_scale_)
         y_pred *= self.y_scale_
         y_pred += self.y_mean_
+        if getattr(self, "_increment_layout", None) is not None:
+            y_pred += self._increment_layout.newest_states(X)
         return y_pred[:, 0] if self._y_1d else y_pred
 
 

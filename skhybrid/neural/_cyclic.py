@@ -98,6 +98,7 @@ class CyclicRegressor(BaseNeuralRegressor):
         validation_fraction=0.2,
         target_scaling="per_output",
         horizon=1,
+        target="state",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -116,6 +117,7 @@ class CyclicRegressor(BaseNeuralRegressor):
             validation_fraction=validation_fraction,
             target_scaling=target_scaling,
             horizon=horizon,
+            target=target,
             patience=patience,
             lr_patience=lr_patience,
             lr_factor=lr_factor,
@@ -157,6 +159,13 @@ class CyclicRegressor(BaseNeuralRegressor):
         """
         encoder, decoder = self._layer_sizes()
         return CyclicModule(int(n_features), int(n_outputs), encoder, decoder)
+
+    def _check_increment(self):
+        raise ValueError(
+            "CyclicRegressor supports target='state' only (its decoder maps the "
+            f"predicted state back to the row); got target={self.target!r}. Use "
+            "DenseRegressor or RNNRegressor for target='increment'."
+        )
 
     def _training_module(self, module):
         if self.horizon > 1:

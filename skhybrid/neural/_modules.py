@@ -214,13 +214,29 @@ class RolloutModule(nn.Module):
         Steps simulated from each start.
     x_mean, x_scale, y_mean, y_scale : ndarray
         The standardisation of rows and targets.
+    increment : bool, default=False
+        Whether the network predicts the (standardised) increment of the newest
+        state of its row. Each step then adds it to the simulated state, and the
+        output is ``(state - x0) / y_scale`` per step, with ``x0`` the newest
+        state of the start window: its residuals are the simulation errors.
     """
 
-    def __init__(self, net, layout, horizon, x_mean, x_scale, y_mean, y_scale):
+    def __init__(
+        self,
+        net,
+        layout,
+        horizon,
+        x_mean,
+        x_scale,
+        y_mean,
+        y_scale,
+        increment=False,
+    ):
         super().__init__()
         self.net = net
         self.layout = layout
         self.horizon = horizon
+        self.increment = increment
         for name, value in (
             ("x_mean", x_mean),
             ("x_scale", x_scale),
@@ -234,12 +250,19 @@ class RolloutModule(nn.Module):
         X = Z[:, :n_features]
         U = Z[:, n_features:].reshape(Z.shape[0], self.horizon - 1, -1)
         preds = []
+        start = None
         for k in range(self.horizon):
             pred = self.net(X)
-            preds.append(pred)
+            raw = X * self.x_scale + self.x_mean
+            state = pred * self.y_scale + self.y_mean
+            if self.increment:
+                newest = self.layout.newest_states(raw)
+                start = newest if start is None else start
+                state = newest + state
+                preds.append((state - start) / self.y_scale)
+            else:
+                preds.append(pred)
             if k < self.horizon - 1:
-                raw = X * self.x_scale + self.x_mean
-                state = pred * self.y_scale + self.y_mean
                 raw = self.layout.shift(raw, state, U[:, k] if U.shape[2] else None)
                 X = (raw - self.x_mean) / self.x_scale
         return torch.cat(preds, dim=1)

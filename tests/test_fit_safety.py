@@ -27,7 +27,17 @@ from skhybrid.preprocessing import make_windows
 from skhybrid.utils._testing import fast_instances
 from skhybrid.utils._transaction import TransactionalFitMixin
 
-ESTIMATORS = [pytest.param(e, id=type(e).__name__) for e in fast_instances()]
+
+def _two_states(est):
+    # A state-space model declares its states: as many as _data's (two).
+    if "state_names" in est.get_params(deep=False):
+        est.set_params(state_names=["x0", "x1"], observed=["x0", "x1"])
+    return est
+
+
+ESTIMATORS = [
+    pytest.param(_two_states(e), id=type(e).__name__) for e in fast_instances()
+]
 
 
 def _data(est, seed):

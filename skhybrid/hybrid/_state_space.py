@@ -103,7 +103,20 @@ class StateSpaceHybridRegressor(
     encoder_hidden_layer_sizes : tuple of int, default=(32,)
         Hidden layers (tanh) of the encoder.
     correction_scale : float, default=0.01
-        Factor ``c`` of the correction network's output (in state scales).
+        Factor ``c`` of the correction network's output, in units of each
+        state's typical change per sample.
+    correction_states : sequence of str or int, or None, default=None
+        The states the correction network reads (names of
+        ``physics.state_names`` or indices), besides the inputs; ``None`` reads
+        all. Leave out states whose absolute level does not matter to the
+        dynamics (an angle that drifts without bound), so that the network does
+        not extrapolate.
+    encoder_absolute : bool, default=True
+        Whether the encoder reads the absolute level of the window's outputs.
+        It always reads the outputs relative to the window's last sample and
+        starts the observed states from their last measured values; ``False``
+        makes the encoder invariant to a constant offset of the outputs (a
+        drive's angle).
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
@@ -143,6 +156,8 @@ class StateSpaceHybridRegressor(
         Mean of the physics' states over the training data.
     state_scale_ : ndarray of shape (n_states,)
         Scale of each state.
+    step_scale_ : ndarray of shape (n_states,)
+        Typical change of each state per sample (the unit of the correction).
     loss_curve_ : list of float
         Training loss after each epoch.
     validation_scores_ : list of float
@@ -196,6 +211,8 @@ class StateSpaceHybridRegressor(
         "hidden_layer_sizes": [tuple, list],
         "encoder_hidden_layer_sizes": [tuple, list],
         "correction_scale": [Interval(Real, 0, None, closed="left")],
+        "correction_states": [list, tuple, None],
+        "encoder_absolute": ["boolean"],
         "train_physics": ["boolean"],
         "lr": [Interval(Real, 0, None, closed="neither")],
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
@@ -217,6 +234,8 @@ class StateSpaceHybridRegressor(
         hidden_layer_sizes=(32, 32),
         encoder_hidden_layer_sizes=(32,),
         correction_scale=0.01,
+        correction_states=None,
+        encoder_absolute=True,
         train_physics=True,
         lr=1e-3,
         max_epochs=100,
@@ -234,6 +253,8 @@ class StateSpaceHybridRegressor(
         self.hidden_layer_sizes = hidden_layer_sizes
         self.encoder_hidden_layer_sizes = encoder_hidden_layer_sizes
         self.correction_scale = correction_scale
+        self.correction_states = correction_states
+        self.encoder_absolute = encoder_absolute
         self.train_physics = train_physics
         self.lr = lr
         self.max_epochs = max_epochs
@@ -266,6 +287,28 @@ class StateSpaceHybridRegressor(
                     f"{name} must hold positive ints; got {name}={value!r}."
                 )
         physics = self.physics
+        names = list(physics.state_names)
+        chosen = []
+        for item in (
+            range(len(names))
+            if self.correction_states is None
+            else self.correction_states
+        ):
+            if isinstance(item, str) and item in names:
+                chosen.append(names.index(item))
+            elif (
+                isinstance(item, Integral)
+                and not isinstance(item, bool)
+                and 0 <= item < len(names)
+            ):
+                chosen.append(int(item))
+            else:
+                raise ValueError(
+                    "correction_states must hold names or indices of "
+                    f"physics.state_names={names!r}; got {item!r} in "
+                    f"correction_states={self.correction_states!r}."
+                )
+        self._corr_idx = chosen
         if physics.time == "continuous" and physics.method == "solve_ivp":
             raise ValueError(
                 "physics must integrate in torch: method='rk4' or 'euler'; got "
@@ -273,7 +316,7 @@ class StateSpaceHybridRegressor(
             )
 
     # -- set-up --------------------------------------------------------------------
-    def _setup(self, physics, Y_win, U_win, states, n_in_window):
+    def _setup(self, physics, Y_win, U_win, states, steps, n_in_window):
         """Scales, networks, parameter transform; ``Y_win`` etc. in NumPy."""
         import torch
 
@@ -288,6 +331,9 @@ class StateSpaceHybridRegressor(
         self._transform = _BoundTransform(theta0, spec.lower, spec.upper)
         self.state_mean_ = states.mean(axis=0)
         self.state_scale_ = _safe_scale(states)
+        self.step_scale_ = _safe_scale(steps) if len(steps) > 1 else self.state_scale_
+        _, observed, _ = physics._structure()
+        self._observed = observed
         self.y_mean_ = Y_win.reshape(-1, Y_win.shape[-1]).mean(axis=0)
         self.y_scale_ = _safe_scale(Y_win.reshape(-1, Y_win.shape[-1]))
         if U_win.shape[-1]:
@@ -296,7 +342,9 @@ class StateSpaceHybridRegressor(
         else:
             self.u_mean_ = self.u_scale_ = np.zeros(0)
         n_states = states.shape[1]
-        n_enc = n_in_window * self.n_outputs_ + (n_in_window - 1) * self.n_inputs_
+        n_enc = (n_in_window - 1) * (self.n_outputs_ + self.n_inputs_)
+        n_enc += self.n_outputs_ if self.encoder_absolute else 0
+        n_enc = max(n_enc, 1)
         rng = check_random_state(self.random_state)
         seed = int(rng.randint(np.iinfo(np.int32).max))
         with torch.random.fork_rng(devices=[]):
@@ -305,7 +353,10 @@ class StateSpaceHybridRegressor(
                 n_enc, n_states, self.encoder_hidden_layer_sizes, torch
             )
             self.correction_ = _mlp(
-                n_states + self.n_inputs_, n_states, self.hidden_layer_sizes, torch
+                len(self._corr_idx) + self.n_inputs_,
+                n_states,
+                self.hidden_layer_sizes,
+                torch,
             )
         self._z = torch.as_tensor(self._transform.z0.copy())
         return rng
@@ -323,20 +374,34 @@ class StateSpaceHybridRegressor(
         import torch
 
         n = Yw.shape[0]
-        ys = (Yw - torch.as_tensor(self.y_mean_)) / torch.as_tensor(self.y_scale_)
-        parts = [ys.reshape(n, -1)]
+        y_scale = torch.as_tensor(self.y_scale_)
+        last = Yw[:, -1]
+        parts = [((Yw[:, :-1] - last[:, None]) / y_scale).reshape(n, -1)]
+        if self.encoder_absolute:
+            parts.append((last - torch.as_tensor(self.y_mean_)) / y_scale)
         if self.n_inputs_ and Uw.shape[1]:
             us = (Uw - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
             parts.append(us.reshape(n, -1))
-        z = self.encoder_(torch.cat(parts, dim=1))
-        return torch.as_tensor(self.state_mean_) + torch.as_tensor(self.state_scale_) * z
+        feats = torch.cat(parts, dim=1)
+        if feats.shape[1] == 0:
+            feats = torch.zeros((n, 1), dtype=Yw.dtype)
+        z = self.encoder_(feats)
+        base = torch.as_tensor(self.state_mean_).expand(n, -1)
+        scale = torch.as_tensor(self.state_scale_)
+        if self._observed is not None:
+            base = base.clone()
+            base[:, self._observed] = last
+            scale = scale.clone()
+            scale[self._observed] = torch.as_tensor(self.step_scale_)[self._observed]
+        return base + scale * z
 
     def _advance(self, x, u, params):
         import torch
 
         x_next = self.physics_.step(x, u, params)
-        xs = (x - torch.as_tensor(self.state_mean_)) / torch.as_tensor(
-            self.state_scale_
+        idx = self._corr_idx
+        xs = (x[:, idx] - torch.as_tensor(self.state_mean_[idx])) / torch.as_tensor(
+            self.state_scale_[idx]
         )
         feats = [xs]
         if self.n_inputs_:
@@ -344,7 +409,7 @@ class StateSpaceHybridRegressor(
                 (u - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
             )
         corr = self.correction_(torch.cat(feats, dim=1))
-        return x_next + self.correction_scale * torch.as_tensor(self.state_scale_) * corr
+        return x_next + self.correction_scale * torch.as_tensor(self.step_scale_) * corr
 
     def _rollout(self, Yw, Uw, U_future, params):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
@@ -575,10 +640,11 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self._k = k
         states, good = self._window_targets(physics, Ytr, Utr, Ytr.shape[1])
         flat = states[good].reshape(-1, states.shape[-1])
+        steps = np.diff(states[good], axis=1).reshape(-1, states.shape[-1])
         if flat.size == 0:
             flat = np.zeros((1, states.shape[-1]))
         x_targets = states[:, k - 1]
-        rng = self._setup(physics, Ytr, Utr, flat, k)
+        rng = self._setup(physics, Ytr, Utr, flat, steps, k)
         if not np.all(good):
             x_targets = np.where(good[:, None], x_targets, self.state_mean_)
         self._train((Ytr, Utr), valid, rng, x_targets)

@@ -17,6 +17,7 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from skhybrid.domain._base import _ParameterSpec
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.hybrid._ensemble import _BoundTransform
@@ -117,6 +118,10 @@ class StateSpaceHybridRegressor(
         starts the observed states from their last measured values; ``False``
         makes the encoder invariant to a constant offset of the outputs (a
         drive's angle).
+    warm_start_physics : bool, default=True
+        Start the physical parameters from ``physics.fit_simulation`` (or
+        ``physics.fit`` in :meth:`fit`); ``False`` starts them from
+        ``physics.params`` (for example values found by an earlier fit).
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
@@ -134,9 +139,16 @@ class StateSpaceHybridRegressor(
     stride : int or None, default=None
         Samples between the starts of consecutive training sub-sequences;
         ``None`` is ``horizon``.
+    physics_initial_state : bool, default=True
+        Whether the encoder corrects the physics' own estimate of the state
+        (the least-squares fit of :meth:`StateSpaceModel.estimate_initial_state`
+        over the window at the starting parameters, run to the window's last
+        sample); the encoder's output layer starts at zero, so training starts
+        from the physics model. ``False``: the encoder alone (SUBNET), first
+        fitted to those estimates for ``encoder_epochs`` epochs.
     encoder_epochs : int, default=50
-        Epochs of the encoder's pre-training on the physics' state estimates
-        (0 to skip).
+        Epochs of the encoder's pre-training with
+        ``physics_initial_state=False`` (0 to skip).
     random_state : int, RandomState instance or None, default=None
         Seeds the initial weights and the batch order; the global torch random
         state is left untouched.
@@ -148,6 +160,8 @@ class StateSpaceHybridRegressor(
         starting values).
     params_ : dict
         Physical parameters after the joint training.
+    params_init_ : dict
+        Their starting values.
     encoder_ : torch.nn.Module
         The trained encoder (float64).
     correction_ : torch.nn.Module
@@ -213,6 +227,7 @@ class StateSpaceHybridRegressor(
         "correction_scale": [Interval(Real, 0, None, closed="left")],
         "correction_states": [list, tuple, None],
         "encoder_absolute": ["boolean"],
+        "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
         "lr": [Interval(Real, 0, None, closed="neither")],
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
@@ -220,6 +235,7 @@ class StateSpaceHybridRegressor(
         "patience": [Interval(Integral, 1, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="left")],
         "stride": [Interval(Integral, 1, None, closed="left"), None],
+        "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
         "random_state": ["random_state"],
     }
@@ -236,6 +252,7 @@ class StateSpaceHybridRegressor(
         correction_scale=0.01,
         correction_states=None,
         encoder_absolute=True,
+        warm_start_physics=True,
         train_physics=True,
         lr=1e-3,
         max_epochs=100,
@@ -243,6 +260,7 @@ class StateSpaceHybridRegressor(
         patience=10,
         validation_fraction=0.2,
         stride=None,
+        physics_initial_state=True,
         encoder_epochs=50,
         random_state=None,
     ):
@@ -255,6 +273,7 @@ class StateSpaceHybridRegressor(
         self.correction_scale = correction_scale
         self.correction_states = correction_states
         self.encoder_absolute = encoder_absolute
+        self.warm_start_physics = warm_start_physics
         self.train_physics = train_physics
         self.lr = lr
         self.max_epochs = max_epochs
@@ -262,6 +281,7 @@ class StateSpaceHybridRegressor(
         self.patience = patience
         self.validation_fraction = validation_fraction
         self.stride = stride
+        self.physics_initial_state = physics_initial_state
         self.encoder_epochs = encoder_epochs
         self.random_state = random_state
 
@@ -329,6 +349,7 @@ class StateSpaceHybridRegressor(
             else np.zeros(0)
         )
         self._transform = _BoundTransform(theta0, spec.lower, spec.upper)
+        self.params_init_ = dict(params)
         self.state_mean_ = states.mean(axis=0)
         self.state_scale_ = _safe_scale(states)
         self.step_scale_ = _safe_scale(steps) if len(steps) > 1 else self.state_scale_
@@ -336,6 +357,12 @@ class StateSpaceHybridRegressor(
         self._observed = observed
         self.y_mean_ = Y_win.reshape(-1, Y_win.shape[-1]).mean(axis=0)
         self.y_scale_ = _safe_scale(Y_win.reshape(-1, Y_win.shape[-1]))
+        rel = Y_win[:, : n_in_window - 1] - Y_win[:, n_in_window - 1 : n_in_window]
+        rel = rel.reshape(-1, Y_win.shape[-1])
+        self.y_rel_scale_ = (
+            np.sqrt(np.mean(rel**2, axis=0)) if len(rel) else np.ones(rel.shape[1])
+        )
+        self.y_rel_scale_ = np.where(self.y_rel_scale_ > 0, self.y_rel_scale_, 1.0)
         if U_win.shape[-1]:
             flat_u = U_win.reshape(-1, U_win.shape[-1])
             self.u_mean_, self.u_scale_ = flat_u.mean(axis=0), _safe_scale(flat_u)
@@ -369,14 +396,15 @@ class StateSpaceHybridRegressor(
         theta = self._transform.to_theta(z, torch)
         return self._spec.to_dict(theta, xp=get_namespace(theta))
 
-    def _encode(self, Yw, Uw):
+    def _encode(self, Yw, Uw, prior=None):
         """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
         import torch
 
         n = Yw.shape[0]
         y_scale = torch.as_tensor(self.y_scale_)
         last = Yw[:, -1]
-        parts = [((Yw[:, :-1] - last[:, None]) / y_scale).reshape(n, -1)]
+        rel_scale = torch.as_tensor(self.y_rel_scale_)
+        parts = [((Yw[:, :-1] - last[:, None]) / rel_scale).reshape(n, -1)]
         if self.encoder_absolute:
             parts.append((last - torch.as_tensor(self.y_mean_)) / y_scale)
         if self.n_inputs_ and Uw.shape[1]:
@@ -388,9 +416,12 @@ class StateSpaceHybridRegressor(
         z = self.encoder_(feats)
         base = torch.as_tensor(self.state_mean_).expand(n, -1)
         scale = torch.as_tensor(self.state_scale_)
+        if prior is not None:
+            base = prior
         if self._observed is not None:
-            base = base.clone()
-            base[:, self._observed] = last
+            if prior is None:
+                base = base.clone()
+                base[:, self._observed] = last
             scale = scale.clone()
             scale[self._observed] = torch.as_tensor(self.step_scale_)[self._observed]
         return base + scale * z
@@ -411,14 +442,14 @@ class StateSpaceHybridRegressor(
         corr = self.correction_(torch.cat(feats, dim=1))
         return x_next + self.correction_scale * torch.as_tensor(self.step_scale_) * corr
 
-    def _rollout(self, Yw, Uw, U_future, params):
+    def _rollout(self, Yw, Uw, U_future, params, prior=None):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
 
         ``U_future[:, 0]`` acts from the window's last sample.
         """
         import torch
 
-        x = self._encode(Yw, Uw)
+        x = self._encode(Yw, Uw, prior)
         outs = []
         for t in range(U_future.shape[1]):
             x = self._advance(x, U_future[:, t], params)
@@ -427,14 +458,22 @@ class StateSpaceHybridRegressor(
 
     # -- training ------------------------------------------------------------------
     def _train(self, windows_train, windows_valid, rng, x_targets):
-        """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m))``."""
+        """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m), prior)``.
+
+        ``prior`` is the physics' state at the window's last sample ``(n,
+        n_states)`` (or None without ``physics_initial_state``).
+        """
         import torch
 
         k = self._k
-        Ytr, Utr = (torch.as_tensor(a) for a in windows_train)
+
+        def tensors(w):
+            return tuple(None if a is None else torch.as_tensor(a) for a in w)
+
+        Ytr, Utr, Ptr = tensors(windows_train)
         has_valid = windows_valid is not None and len(windows_valid[0]) > 0
         if has_valid:
-            Yva, Uva = (torch.as_tensor(a) for a in windows_valid)
+            Yva, Uva, Pva = tensors(windows_valid)
         y_scale = torch.as_tensor(self.y_scale_)
         n = Ytr.shape[0]
         batch = min(self.batch_size, n)
@@ -445,7 +484,12 @@ class StateSpaceHybridRegressor(
             return [perm[i * batch : (i + 1) * batch] for i in range(n_batches)]
 
         # 1. Encoder pre-training on the physics' state estimates.
-        if self.encoder_epochs and x_targets is not None:
+        if self.physics_initial_state:
+            last = [m for m in self.encoder_ if isinstance(m, torch.nn.Linear)][-1]
+            with torch.no_grad():
+                last.weight.zero_()
+                last.bias.zero_()
+        elif self.encoder_epochs and x_targets is not None:
             target = torch.as_tensor(
                 (x_targets - self.state_mean_) / self.state_scale_
             )
@@ -475,24 +519,35 @@ class StateSpaceHybridRegressor(
             groups.append({"params": [z]})
         optimizer = torch.optim.Adam(groups, lr=self.lr)
 
-        def loss_on(Y, U):
+        def loss_on(Y, U, P):
             params = self._params(z)
-            sim = self._rollout(Y[:, :k], U[:, : k - 1], U[:, k - 1 : -1], params)
+            sim = self._rollout(Y[:, :k], U[:, : k - 1], U[:, k - 1 : -1], params, P)
             return torch.mean(((sim - Y[:, k:]) / y_scale) ** 2)
 
-        def evaluate(Y, U):
+        def evaluate(Y, U, P):
             with torch.no_grad():
-                return float(loss_on(Y, U))
+                score = float(loss_on(Y, U, P))
+            return score if math.isfinite(score) else math.inf
+
+        def pick(P, idx):
+            return None if P is None else P[idx]
 
         self.loss_curve_, self.validation_scores_ = [], []
-        best, best_state, since_best = math.inf, None, 0
+        # The starting model (the physics, a small correction) is a candidate.
+        best = evaluate(Yva, Uva, Pva) if has_valid else evaluate(Ytr, Utr, Ptr)
+        best_state = (
+            z.detach().clone(),
+            copy.deepcopy(self.encoder_.state_dict()),
+            copy.deepcopy(self.correction_.state_dict()),
+        )
+        since_best = 0
         first = None
         for epoch in range(self.max_epochs):
             total = 0.0
             for idx in batches():
                 idx = torch.as_tensor(idx)
                 optimizer.zero_grad()
-                loss = loss_on(Ytr[idx], Utr[idx])
+                loss = loss_on(Ytr[idx], Utr[idx], pick(Ptr, idx))
                 if not torch.isfinite(loss):
                     raise TrainingDivergedError(
                         f"StateSpaceHybridRegressor: the simulation loss became "
@@ -515,9 +570,7 @@ class StateSpaceHybridRegressor(
             self.loss_curve_.append(train_loss)
             score = train_loss
             if has_valid:
-                score = evaluate(Yva, Uva)
-                if not math.isfinite(score):
-                    score = math.inf
+                score = evaluate(Yva, Uva, Pva)
                 self.validation_scores_.append(score)
             if score < best:
                 best, since_best = score, 0
@@ -552,6 +605,14 @@ class StateSpaceHybridRegressor(
                 if t < n_times - 1:
                     x = physics.step(x, U[:, t])
         return np.stack(out, axis=1)
+
+    def _prior(self, Y, U):
+        """The physics' state at the last sample of windows ``Y``, ``U`` (or None)."""
+        if not self.physics_initial_state:
+            return None
+        k = Y.shape[1]
+        states, good = self._window_targets(self.physics_, Y, U, k)
+        return np.where(good[:, None], states[:, k - 1], self.state_mean_)
 
     def _window_targets(self, physics, Y, U, k):
         """Physics' state estimates at the last sample of each window."""
@@ -609,7 +670,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                     "records must be finite."
                 )
         physics = clone(self.physics).set_params(n_init=k)
-        physics.fit_simulation(U_list, Y_list)
+        self._start_physics(physics, "fit_simulation", U_list, Y_list)
 
         L = k + T
         train, valid = [], []
@@ -633,6 +694,17 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             wv = (np.stack([a for a, _ in valid]), np.stack([b for _, b in valid]))
         return self._fit_windows(physics, Ytr, Utr, wv, k, n_outputs, n_inputs)
 
+    def _start_physics(self, physics, method, a, b):
+        """Warm-start ``physics`` by ``method(a, b)``, or set it up at its params."""
+        if self.warm_start_physics:
+            getattr(physics, method)(a, b)
+            return
+        physics._structure()
+        init = physics._initial_params()
+        spec = _ParameterSpec(init, physics.fixed, physics._resolved_bounds(init))
+        physics._spec = spec
+        physics.params_ = spec.to_dict(spec.x0)
+
     def _fit_windows(self, physics, Ytr, Utr, valid, k, n_outputs, n_inputs):
         self.physics_ = physics
         self.n_outputs_, self.n_inputs_ = n_outputs, n_inputs
@@ -647,7 +719,10 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         rng = self._setup(physics, Ytr, Utr, flat, steps, k)
         if not np.all(good):
             x_targets = np.where(good[:, None], x_targets, self.state_mean_)
-        self._train((Ytr, Utr), valid, rng, x_targets)
+        prior = x_targets if self.physics_initial_state else None
+        if valid is not None:
+            valid = (*valid, self._prior(valid[0][:, :k], valid[1][:, :k]))
+        self._train((Ytr, Utr, prior), valid, rng, x_targets)
         return self
 
     # -- windows -------------------------------------------------------------------
@@ -699,7 +774,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             )
         n_features = X.shape[1]
         physics = clone(self.physics).set_params(n_steps=self.n_steps)
-        physics.fit(X, y)
+        self._start_physics(physics, "fit", X, y)
         Ys, Us = self._split(X, n_outputs)
         # Sequences of n_steps + 1 samples: the window, then the target.
         Yseq = np.concatenate([Ys, Y[:, None, :]], axis=1)
@@ -745,12 +820,14 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 "use simulate, or train with fit."
             )
         Ys, Us = self._split(X, self.n_outputs_)
+        prior = self._prior(Ys, Us)
         with torch.no_grad():
             out = self._rollout(
                 torch.as_tensor(Ys),
                 torch.as_tensor(Us[:, : k - 1]),
                 torch.as_tensor(Us[:, k - 1 :]),
                 self._params_t,
+                None if prior is None else torch.as_tensor(prior),
             )[:, 0].numpy()
         return out[:, 0] if getattr(self, "_y_1d", False) else out
 
@@ -814,24 +891,31 @@ n_init, n_outputs) or list of 2-D arrays
                 )
         n_max = int(lengths.max())
         out = np.zeros((len(U_list), n_max, self.n_outputs_))
-        for i in range(len(U_list)):
-            s, n = starts[i], lengths[i]
-            out[i, :s] = Y_list[i]
+        pairs = sorted({(int(a), int(b)) for a, b in zip(starts, lengths)})
+        for s, n in pairs:
+            idx = [i for i in range(len(U_list)) if (starts[i], lengths[i]) == (s, n)]
+            for i in idx:
+                out[i, :s] = Y_list[i]
             if n == s:
                 continue
-            u = torch.as_tensor(U_list[i][None])
+            U = np.stack([U_list[i][:n] for i in idx])
+            Yw = np.stack([Y_list[i][s - k : s] for i in idx])
+            prior = self._prior(Yw, U[:, s - k : s])
+            u = torch.as_tensor(U)
             with torch.no_grad():
                 sim = self._rollout(
-                    torch.as_tensor(Y_list[i][None, s - k : s]),
+                    torch.as_tensor(Yw),
                     u[:, s - k : s - 1],
                     u[:, s - 1 : n - 1],
                     self._params_t,
-                )[0].numpy()
-            bad = np.flatnonzero(~np.all(np.isfinite(sim), axis=1))
-            if bad.size:
+                    None if prior is None else torch.as_tensor(prior),
+                ).numpy()
+            finite = np.all(np.isfinite(sim), axis=2)
+            if not np.all(finite):
+                j, t = np.argwhere(~finite)[0]
                 raise SimulationDivergedError(
-                    f"the simulation diverged at time step {s + bad[0]}: trajectory "
-                    f"{i} reached a non-finite output."
+                    f"the simulation diverged at time step {s + t}: trajectory "
+                    f"{idx[j]} reached a non-finite output."
                 )
-            out[i, s:n] = sim
+            out[idx, s:n] = sim
         return _pack(out, lengths, form)

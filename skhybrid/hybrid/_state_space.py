@@ -78,8 +78,10 @@ class StateSpaceHybridRegressor(
     the encoder is fitted to the physics' least-squares state estimates of the
     training windows, so the joint training starts from the physics model.
     Adam on mini-batches of ``batch_size`` sub-sequences (all batches of equal
-    size), early stopping on the sub-sequences cut from the last
-    ``validation_fraction`` of every record; the best epoch is kept.
+    size); early stopping on the free-run error over the last
+    ``validation_fraction`` of every record (each tail simulated from its first
+    ``n_init`` samples, as :meth:`simulate` would), keeping the best epoch (the
+    starting model included).
 
     :meth:`fit` and :meth:`predict` follow scikit-learn's convention on windows
     of history (see :func:`~skhybrid.preprocessing.make_windows`): each row's
@@ -680,8 +682,8 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             for s in range(0, cut - L + 1, stride):
                 train.append((y[s : s + L], u[s : s + L]))
             if cut < len(y):
-                for s in range(cut, len(y) - L + 1, stride):
-                    valid.append((y[s : s + L], u[s : s + L]))
+                # The whole tail, simulated from its first n_init samples.
+                valid.append((y[cut:], u[cut:]))
         if not train:
             raise ValueError(
                 f"no record holds n_init + horizon = {k} + {T} = {L} samples in its "
@@ -691,7 +693,11 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         Utr = np.stack([b for _, b in train])
         wv = None
         if valid:
-            wv = (np.stack([a for a, _ in valid]), np.stack([b for _, b in valid]))
+            n_tail = min(len(a) for a, _ in valid)
+            wv = (
+                np.stack([a[:n_tail] for a, _ in valid]),
+                np.stack([b[:n_tail] for _, b in valid]),
+            )
         return self._fit_windows(physics, Ytr, Utr, wv, k, n_outputs, n_inputs)
 
     def _start_physics(self, physics, method, a, b):

@@ -129,7 +129,9 @@ def records(n_records, length, seed):
 
 
 def rmse_on(sim, Y):
-    err = np.concatenate([(s[N_INIT:] - y[N_INIT:]).ravel() for s, y in zip(sim, Y)])
+    err = np.concatenate(
+        [(s[N_INIT:] - y[N_INIT:]).ravel() for s, y in zip(sim, Y, strict=True)]
+    )
     return float(np.sqrt(np.mean(err**2)))
 
 
@@ -164,7 +166,7 @@ def run(
     # One hybrid per horizon, each trained on the first 80 % of every training
     # record (the last 20 % is its early-stopping tail); the horizon is chosen by
     # the free-run RMSE on that tail, never on the test records.
-    n_fit = length - int(round(0.2 * length))
+    n_fit = length - round(0.2 * length)
     U_va = [u[n_fit - N_INIT :] for u in U_tr]
     Y_va = [y[n_fit - N_INIT :] for y in Y_tr]
     best = None
@@ -244,8 +246,14 @@ def main():
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     if args.quick:
-        run(n_train=4, n_test=2, length=600, horizons=(20,), max_epochs=20,
-            seed=args.seed)
+        run(
+            n_train=4,
+            n_test=2,
+            length=600,
+            horizons=(20,),
+            max_epochs=20,
+            seed=args.seed,
+        )
     else:
         run(seed=args.seed)
 

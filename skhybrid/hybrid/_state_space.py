@@ -492,9 +492,7 @@ class StateSpaceHybridRegressor(
                 last.weight.zero_()
                 last.bias.zero_()
         elif self.encoder_epochs and x_targets is not None:
-            target = torch.as_tensor(
-                (x_targets - self.state_mean_) / self.state_scale_
-            )
+            target = torch.as_tensor((x_targets - self.state_mean_) / self.state_scale_)
             opt = torch.optim.Adam(self.encoder_.parameters(), lr=self.lr * 3)
             mean, scale = (
                 torch.as_tensor(self.state_mean_),
@@ -504,7 +502,9 @@ class StateSpaceHybridRegressor(
                 for idx in batches():
                     idx = torch.as_tensor(idx)
                     opt.zero_grad()
-                    pred = (self._encode(Ytr[idx, :k], Utr[idx, : k - 1]) - mean) / scale
+                    pred = (
+                        self._encode(Ytr[idx, :k], Utr[idx, : k - 1]) - mean
+                    ) / scale
                     loss = torch.mean((pred - target[idx]) ** 2)
                     loss.backward()
                     opt.step()
@@ -677,7 +677,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         L = k + T
         train, valid = [], []
         for u, y in zip(U_list, Y_list, strict=True):
-            n_valid = int(round(self.validation_fraction * len(y)))
+            n_valid = round(self.validation_fraction * len(y))
             cut = len(y) - n_valid if n_valid >= L else len(y)
             for s in range(0, cut - L + 1, stride):
                 train.append((y[s : s + L], u[s : s + L]))
@@ -786,7 +786,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         Yseq = np.concatenate([Ys, Y[:, None, :]], axis=1)
         Useq = np.concatenate([Us, np.zeros_like(Us[:, :1])], axis=1)
         n = len(X)
-        n_valid = int(round(self.validation_fraction * n))
+        n_valid = round(self.validation_fraction * n)
         valid = None
         if n_valid >= 1 and n - n_valid >= 1:
             valid = (Yseq[n - n_valid :], Useq[n - n_valid :])
@@ -897,7 +897,7 @@ n_init, n_outputs) or list of 2-D arrays
                 )
         n_max = int(lengths.max())
         out = np.zeros((len(U_list), n_max, self.n_outputs_))
-        pairs = sorted({(int(a), int(b)) for a, b in zip(starts, lengths)})
+        pairs = sorted({(int(a), int(b)) for a, b in zip(starts, lengths, strict=True)})
         for s, n in pairs:
             idx = [i for i in range(len(U_list)) if (starts[i], lengths[i]) == (s, n)]
             for i in idx:

@@ -60,9 +60,7 @@ def test_simulate_contract_and_forms():
 
 def test_improves_on_the_physics_it_starts_from():
     u, y = _records(n=6, length=120)
-    model = _model(max_epochs=40, lr=3e-3, horizon=10, patience=40).fit_simulation(
-        u, y
-    )
+    model = _model(max_epochs=40, lr=3e-3, horizon=10, patience=40).fit_simulation(u, y)
     ut, yt = _records(n=3, length=120, seed=1)
     physics = _physics(n_init=3).fit_simulation(u, y)
     err_physics = np.sqrt(np.mean((physics.simulate(ut, yt[:, :3]) - yt) ** 2))
@@ -88,8 +86,12 @@ def test_latent_state_and_physics_free_encoder():
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, (3, 100, 1))
     truth = StateSpaceModel(
-        oscillator, {"omega": 2.0}, state_names=["p", "v"], observed=["p"],
-        dt=0.1, fixed=("omega",),
+        oscillator,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        fixed=("omega",),
     ).fit_simulation(u, np.zeros((3, 100, 1)))
     y = truth.simulate_from_state(u, [[0.3, 0.0], [0.0, 0.5], [-0.2, 0.1]])
     physics = StateSpaceModel(
@@ -97,8 +99,14 @@ def test_latent_state_and_physics_free_encoder():
     )
     for prior in (True, False):
         model = StateSpaceHybridRegressor(
-            physics, n_init=5, horizon=10, max_epochs=3, encoder_epochs=3,
-            physics_initial_state=prior, correction_states=["v"], random_state=0,
+            physics,
+            n_init=5,
+            horizon=10,
+            max_epochs=3,
+            encoder_epochs=3,
+            physics_initial_state=prior,
+            correction_states=["v"],
+            random_state=0,
         ).fit_simulation(u, y)
         assert model.simulate(u, y[:, :5]).shape == y.shape
 
@@ -136,8 +144,12 @@ def test_bad_settings_raise_naming_parameter_and_value(kwargs, match):
 
 def test_solve_ivp_physics_is_rejected():
     physics = StateSpaceModel(
-        oscillator, {"omega": 2.0}, state_names=["p", "v"], observed=["p"],
-        dt=0.1, method="solve_ivp",
+        oscillator,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        method="solve_ivp",
     )
     u, y = _records()
     with pytest.raises(ValueError, match="method='solve_ivp'"):

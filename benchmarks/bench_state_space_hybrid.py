@@ -144,7 +144,7 @@ def run(
     n_test=4,
     length=1000,
     horizons=(20, 50),
-    max_epochs=60,
+    max_epochs=40,
     n_steps=10,
     seed=0,
     verbose=True,

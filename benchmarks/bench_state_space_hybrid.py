@@ -162,6 +162,7 @@ def run(
     timings["physics"] = time.time() - t0
     if verbose:
         print(f"physics params: {physics.params_}")
+        print(f"  physics test RMSE {results['physics']:.4f}")
 
     # One hybrid per horizon, each trained on the first 80 % of every training
     # record (the last 20 % is its early-stopping tail); the horizon is chosen by
@@ -169,6 +170,9 @@ def run(
     n_fit = length - round(0.2 * length)
     U_va = [u[n_fit - N_INIT :] for u in U_tr]
     Y_va = [y[n_fit - N_INIT :] for y in Y_tr]
+    if verbose:
+        tail = rmse_on(physics.simulate(U_va, [y[:N_INIT] for y in Y_va]), Y_va)
+        print(f"  physics validation-tail free-run RMSE {tail:.4f}")
     best = None
     for T in horizons:
         t0 = time.time()
@@ -204,6 +208,8 @@ def run(
     sim = hybrid.simulate(U_te, [y[:N_INIT] for y in Y_te])
     results[f"state-space hybrid (T={T})"] = rmse_on(sim, Y_te)
     timings[f"state-space hybrid (T={T})"] = elapsed
+    if verbose:
+        print(f"  hybrid test RMSE {results[f'state-space hybrid (T={T})']:.4f}")
 
     X, y = make_windows(Y_tr, U_tr, n_steps=n_steps)
     dense = dict(
@@ -215,7 +221,10 @@ def run(
     )
     t0 = time.time()
     boost = HybridBoostingRegressor(
-        [("physics", LinearStateSpaceModel()), ("nn", DenseRegressor(**dense))],
+        [
+            ("physics", LinearStateSpaceModel(n_steps=n_steps)),
+            ("nn", DenseRegressor(**dense)),
+        ],
         n_steps=n_steps,
     ).fit(X, y[:, 0])
     results[f"windowed hybrid (k={n_steps})"] = rmse_on(
@@ -223,7 +232,7 @@ def run(
     )
     timings[f"windowed hybrid (k={n_steps})"] = time.time() - t0
     t0 = time.time()
-    net = DenseRegressor(**dense, n_steps=n_steps).fit(X, y[:, 0])
+    net = DenseRegressor(**dense).fit(X, y[:, 0])
     results[f"network alone (k={n_steps})"] = rmse_on(
         simulate_windowed(net, U_te, Y_te, n_steps), Y_te
     )

@@ -138,9 +138,9 @@ class StateSpaceHybridRegressor(
     validation_fraction : float, default=0.2
         Fraction at the end of every record (of the rows, in :meth:`fit`)
         held out for early stopping; ``0`` stops on the training loss.
-    stride : int or None, default=None
-        Samples between the starts of consecutive training sub-sequences;
-        ``None`` is ``horizon``.
+    stride : int, default=1
+        Samples between the starts of consecutive training sub-sequences (1:
+        every sub-sequence; larger values train faster on long records).
     physics_initial_state : bool, default=True
         Whether the encoder corrects the physics' own estimate of the state
         (the least-squares fit of :meth:`StateSpaceModel.estimate_initial_state`
@@ -236,7 +236,7 @@ class StateSpaceHybridRegressor(
         "batch_size": [Interval(Integral, 1, None, closed="left")],
         "patience": [Interval(Integral, 1, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="left")],
-        "stride": [Interval(Integral, 1, None, closed="left"), None],
+        "stride": [Interval(Integral, 1, None, closed="left")],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
         "random_state": ["random_state"],
@@ -261,7 +261,7 @@ class StateSpaceHybridRegressor(
         batch_size=32,
         patience=10,
         validation_fraction=0.2,
-        stride=None,
+        stride=1,
         physics_initial_state=True,
         encoder_epochs=50,
         random_state=None,
@@ -659,7 +659,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         n_inputs = _check_widths(U_list, "inputs")
         n_outputs = _check_widths(Y_list, "outputs")
         k, T = self.n_init, self.horizon
-        stride = self.horizon if self.stride is None else self.stride
+        stride = self.stride
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
             if len(u) != len(y):
                 raise ValueError(

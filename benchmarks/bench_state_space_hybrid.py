@@ -147,6 +147,8 @@ def run(
     max_epochs=40,
     n_steps=10,
     seed=0,
+    train_physics=True,
+    correction_scale=0.01,
     verbose=True,
 ):
     """Fit the four models and return their test RMSE (a dict)."""
@@ -183,8 +185,11 @@ def run(
             hidden_layer_sizes=(32, 32),
             encoder_hidden_layer_sizes=(32,),
             correction_states=["twist", "motor_speed", "load_speed"],
+            corrected_states=["motor_speed", "load_speed"],
             encoder_absolute=False,
             warm_start_physics=False,
+            train_physics=train_physics,
+            correction_scale=correction_scale,
             lr=3e-3,
             max_epochs=max_epochs,
             batch_size=32,

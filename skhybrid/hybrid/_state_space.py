@@ -44,6 +44,28 @@ def _mlp(n_in, n_out, hidden, torch):
     return torch.nn.Sequential(*layers).double()
 
 
+def _state_indices(items, names, param):
+    """Column indices of ``items`` (names or indices; None is all) in ``names``."""
+    if items is None:
+        return list(range(len(names)))
+    chosen = []
+    for item in items:
+        if isinstance(item, str) and item in names:
+            chosen.append(names.index(item))
+        elif (
+            isinstance(item, Integral)
+            and not isinstance(item, bool)
+            and 0 <= item < len(names)
+        ):
+            chosen.append(int(item))
+        else:
+            raise ValueError(
+                f"{param} must hold names or indices of physics.state_names="
+                f"{names!r}; got {item!r} in {param}={items!r}."
+            )
+    return chosen
+
+
 def _safe_scale(values, axis=0):
     s = np.std(values, axis=axis)
     m = np.mean(values, axis=axis)
@@ -114,6 +136,11 @@ class StateSpaceHybridRegressor(
         all. Leave out states whose absolute level does not matter to the
         dynamics (an angle that drifts without bound), so that the network does
         not extrapolate.
+    corrected_states : sequence of str or int, or None, default=None
+        The states whose update the network corrects (names or indices);
+        ``None`` corrects all. Correcting only where the physics is uncertain
+        (the speeds of a mechanism, not the kinematics ``d angle/dt = speed``)
+        keeps the rest exact.
     encoder_absolute : bool, default=True
         Whether the encoder reads the absolute level of the window's outputs.
         It always reads the outputs relative to the window's last sample and
@@ -228,6 +255,7 @@ class StateSpaceHybridRegressor(
         "encoder_hidden_layer_sizes": [tuple, list],
         "correction_scale": [Interval(Real, 0, None, closed="left")],
         "correction_states": [list, tuple, None],
+        "corrected_states": [list, tuple, None],
         "encoder_absolute": ["boolean"],
         "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
@@ -253,6 +281,7 @@ class StateSpaceHybridRegressor(
         encoder_hidden_layer_sizes=(32,),
         correction_scale=0.01,
         correction_states=None,
+        corrected_states=None,
         encoder_absolute=True,
         warm_start_physics=True,
         train_physics=True,
@@ -274,6 +303,7 @@ class StateSpaceHybridRegressor(
         self.encoder_hidden_layer_sizes = encoder_hidden_layer_sizes
         self.correction_scale = correction_scale
         self.correction_states = correction_states
+        self.corrected_states = corrected_states
         self.encoder_absolute = encoder_absolute
         self.warm_start_physics = warm_start_physics
         self.train_physics = train_physics
@@ -310,27 +340,11 @@ class StateSpaceHybridRegressor(
                 )
         physics = self.physics
         names = list(physics.state_names)
-        chosen = []
-        for item in (
-            range(len(names))
-            if self.correction_states is None
-            else self.correction_states
-        ):
-            if isinstance(item, str) and item in names:
-                chosen.append(names.index(item))
-            elif (
-                isinstance(item, Integral)
-                and not isinstance(item, bool)
-                and 0 <= item < len(names)
-            ):
-                chosen.append(int(item))
-            else:
-                raise ValueError(
-                    "correction_states must hold names or indices of "
-                    f"physics.state_names={names!r}; got {item!r} in "
-                    f"correction_states={self.correction_states!r}."
-                )
-        self._corr_idx = chosen
+        self._corr_idx = _state_indices(
+            self.correction_states, names, "correction_states"
+        )
+        corrected = _state_indices(self.corrected_states, names, "corrected_states")
+        self._corr_mask = np.isin(np.arange(len(names)), corrected).astype(float)
         if physics.time == "continuous" and physics.method == "solve_ivp":
             raise ValueError(
                 "physics must integrate in torch: method='rk4' or 'euler'; got "
@@ -442,7 +456,8 @@ class StateSpaceHybridRegressor(
                 (u - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
             )
         corr = self.correction_(torch.cat(feats, dim=1))
-        return x_next + self.correction_scale * torch.as_tensor(self.step_scale_) * corr
+        scale = self.correction_scale * self.step_scale_ * self._corr_mask
+        return x_next + torch.as_tensor(scale) * corr
 
     def _rollout(self, Yw, Uw, U_future, params, prior=None):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
@@ -486,12 +501,22 @@ class StateSpaceHybridRegressor(
             return [perm[i * batch : (i + 1) * batch] for i in range(n_batches)]
 
         # 1. Encoder pre-training on the physics' state estimates.
+        # The correction starts at zero (a random start would add a drift that
+        # accumulates in free run), the encoder too where it corrects the
+        # physics' estimate: training starts from the physics model.
+        zeroed = [self.correction_]
         if self.physics_initial_state:
-            last = [m for m in self.encoder_ if isinstance(m, torch.nn.Linear)][-1]
+            zeroed.append(self.encoder_)
+        for module in zeroed:
+            last = [m for m in module if isinstance(m, torch.nn.Linear)][-1]
             with torch.no_grad():
                 last.weight.zero_()
                 last.bias.zero_()
-        elif self.encoder_epochs and x_targets is not None:
+        if (
+            not self.physics_initial_state
+            and self.encoder_epochs
+            and x_targets is not None
+        ):
             target = torch.as_tensor((x_targets - self.state_mean_) / self.state_scale_)
             opt = torch.optim.Adam(self.encoder_.parameters(), lr=self.lr * 3)
             mean, scale = (

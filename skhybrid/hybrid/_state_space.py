@@ -83,8 +83,9 @@ class StateSpaceHybridRegressor(
     - state update ``x(t+1) = step(x(t), u(t); theta) + c * S * net_f([x(t),
       u(t)])``, ``step`` the discretised equations of a
       :class:`~skhybrid.domain.StateSpaceModel` (:meth:`StateSpaceModel.step`,
-      evaluated in torch), ``S`` the states' scales and ``c =
-      correction_scale``, so the network starts as a small correction;
+      evaluated in torch), ``S`` each state's typical change per sample and
+      ``c = correction_scale``; the network's output layer starts at zero, so
+      the model starts as the physics;
     - outputs ``y(t) = h(x(t))``, the physics' observed states;
     - an encoder network maps the initialisation window (the ``n_init``
       measured outputs and the ``n_init - 1`` inputs between them) to the

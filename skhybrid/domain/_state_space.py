@@ -21,7 +21,7 @@ from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import split_steps, step_width
 from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
-from skhybrid.utils._array_api import is_torch
+from skhybrid.utils._array_api import get_namespace, is_torch
 from skhybrid.utils._sklearn_compat import (
     Interval,
     StrOptions,
@@ -503,6 +503,67 @@ default=None
             if t < U.shape[1]:
                 x = self._step(x, U[:, t], f)
         return xp.stack(outs, axis=1), x
+
+    def step(self, x, u, params=None):
+        """Advance states by one sample period, in NumPy or torch.
+
+        Applies the discretised state equations (``time="discrete"``: ``rhs``
+        itself; ``"continuous"``: ``n_substeps`` Euler or RK4 steps over ``dt``
+        with ``u`` held) in the namespace of ``x``, so that with torch tensors
+        (the states and the parameter values) gradients reach both; the
+        state-space hybrid trains through it.
+
+        Parameters
+        ----------
+        x : ndarray or torch.Tensor of shape (n, n_states)
+            States at the current sample.
+        u : ndarray or torch.Tensor of shape (n, n_inputs)
+            Inputs held over the sample period.
+        params : dict or None, default=None
+            Parameter values (floats, arrays or 0-d tensors) by name; ``None``
+            uses the fitted ``params_``.
+
+        Returns
+        -------
+        x_next : ndarray or torch.Tensor of shape (n, n_states)
+            States one sample period later.
+        """
+        xp = get_namespace(x)
+        if is_torch(xp) and self.time == "continuous" and self.method == "solve_ivp":
+            raise ValueError(
+                "step on torch tensors needs method='rk4' or 'euler'; got "
+                f"method={self.method!r}."
+            )
+        if not is_torch(xp):
+            xp = np
+        if params is None:
+            check_is_fitted(self)
+            params = self.params_
+        return self._step(x, u, self._rhs_fn(params, xp))
+
+    def observe(self, x, params=None):
+        """The outputs of states ``x``: ``x[:, observed]`` or ``output(x)``.
+
+        Parameters
+        ----------
+        x : ndarray or torch.Tensor of shape (n, n_states)
+            States.
+        params : dict or None, default=None
+            Parameter values by name (used by an ``output`` function); ``None``
+            uses the fitted ``params_``.
+
+        Returns
+        -------
+        y : ndarray or torch.Tensor of shape (n, n_outputs)
+            Outputs of the states.
+        """
+        _, observed, _ = self._structure()
+        xp = get_namespace(x)
+        if not is_torch(xp):
+            xp = np
+        if params is None:
+            params = self.params_ if observed is None else {}
+        return self._output_fn(params, observed, xp)(x)
 
     # -- initial states ------------------------------------------------------------
     def _call_guess(self, func, Y, U, n_states):

@@ -8,12 +8,15 @@ The decomposition ``Y = f(X; theta) + NN(X; W) + N(phi)`` of the method paper:
   composition through a :class:`~skhybrid.neural.CyclicRegressor` stage;
 - :class:`HybridEnsembleRegressor`: the parallel composition, physics parameters and
   network weights trained jointly in torch;
+- :class:`StateSpaceHybridRegressor`: physics state equations plus a network
+  correction and an initial-state encoder, trained by the simulation error;
 - :class:`GaussianNoise` and :class:`AutoRegressiveNoise`: the stochastic term.
 """
 
 from skhybrid.hybrid._boosting import HybridBoostingRegressor, StageWhiteness
 from skhybrid.hybrid._ensemble import HybridEnsembleRegressor
 from skhybrid.hybrid._noise import AutoRegressiveNoise, GaussianNoise
+from skhybrid.hybrid._state_space import StateSpaceHybridRegressor
 
 __all__ = [
     "AutoRegressiveNoise",
@@ -21,4 +24,5 @@ __all__ = [
     "HybridBoostingRegressor",
     "HybridEnsembleRegressor",
     "StageWhiteness",
+    "StateSpaceHybridRegressor",
 ]

@@ -11,7 +11,7 @@ with its reason. Keep it empty unless an issue allows an entry.
 import numpy as np
 
 # Stages of the hybrid compositions (imported here, used in FAST_PARAMS below).
-from skhybrid.domain import LinearStateSpaceModel
+from skhybrid.domain import LinearStateSpaceModel, StateSpaceModel
 from skhybrid.neural import DenseRegressor
 from skhybrid.utils.discovery import all_estimators
 
@@ -81,6 +81,21 @@ FAST_PARAMS = {
         domain=LinearStateSpaceModel(),
         neural=DenseRegressor(hidden_layer_sizes=(8,)),
         max_epochs=20,
+        random_state=0,
+    ),
+    "StateSpaceHybridRegressor": dict(
+        physics=StateSpaceModel(
+            rhs=affine_step,
+            params={"a": 0.5, "b": 0.1},
+            state_names=["x"],
+            observed=["x"],
+            time="discrete",
+        ),
+        hidden_layer_sizes=(8,),
+        encoder_hidden_layer_sizes=(8,),
+        max_epochs=5,
+        encoder_epochs=5,
+        lr=0.01,
         random_state=0,
     ),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),

@@ -1,0 +1,953 @@
+"""StateSpaceHybridRegressor: physics state equations plus a learned correction.
+
+A SUBNET-style model (Beintema, Toth and Schoukens, 2021): an encoder network
+estimates the state at the end of an initialisation window of measured outputs
+and inputs, the physics' discretised state equations plus a network correction
+advance the state, and the outputs are the physics' observed states. Encoder,
+correction and physical parameters are trained jointly by the simulation error
+over sub-sequences of ``horizon`` steps.
+"""
+
+import copy
+import math
+from numbers import Integral, Real
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.utils import check_random_state
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.domain._base import _ParameterSpec
+from skhybrid.domain._state_space import StateSpaceModel
+from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
+from skhybrid.hybrid._ensemble import _BoundTransform
+from skhybrid.neural._callbacks import check_divergence
+from skhybrid.preprocessing import split_steps
+from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
+from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    _fit_context,
+    validate_data,
+)
+from skhybrid.utils._transaction import TransactionalFitMixin, transactional
+
+__all__ = ["StateSpaceHybridRegressor"]
+
+
+def _mlp(n_in, n_out, hidden, torch):
+    layers, width = [], n_in
+    for size in hidden:
+        layers += [torch.nn.Linear(width, int(size)), torch.nn.Tanh()]
+        width = int(size)
+    layers.append(torch.nn.Linear(width, n_out))
+    return torch.nn.Sequential(*layers).double()
+
+
+def _state_indices(items, names, param):
+    """Column indices of ``items`` (names or indices; None is all) in ``names``."""
+    if items is None:
+        return list(range(len(names)))
+    chosen = []
+    for item in items:
+        if isinstance(item, str) and item in names:
+            chosen.append(names.index(item))
+        elif (
+            isinstance(item, Integral)
+            and not isinstance(item, bool)
+            and 0 <= item < len(names)
+        ):
+            chosen.append(int(item))
+        else:
+            raise ValueError(
+                f"{param} must hold names or indices of physics.state_names="
+                f"{names!r}; got {item!r} in {param}={items!r}."
+            )
+    return chosen
+
+
+def _safe_scale(values, axis=0):
+    s = np.std(values, axis=axis)
+    m = np.mean(values, axis=axis)
+    return np.where(s > 1e-12 * (1 + np.abs(m)), s, 1.0)
+
+
+class StateSpaceHybridRegressor(
+    TransactionalFitMixin, VersionedPickleMixin, RegressorMixin, BaseEstimator
+):
+    """State-space hybrid with a learned initial-state encoder, trained by simulation.
+
+    The model is the SUBNET structure (Beintema et al., 2021) with a physics
+    prior:
+
+    - state update ``x(t+1) = step(x(t), u(t); theta) + c * S * net_f([x(t),
+      u(t)])``, ``step`` the discretised equations of a
+      :class:`~skhybrid.domain.StateSpaceModel` (:meth:`StateSpaceModel.step`,
+      evaluated in torch), ``S`` each state's typical change per sample and
+      ``c = correction_scale``; the network's output layer starts at zero, so
+      the model starts as the physics;
+    - outputs ``y(t) = h(x(t))``, the physics' observed states;
+    - an encoder network maps the initialisation window (the ``n_init``
+      measured outputs and the ``n_init - 1`` inputs between them) to the
+      state at the window's last sample.
+
+    Training (:meth:`fit_simulation`) cuts sub-sequences of ``n_init +
+    horizon`` samples from the records; the encoder gives the state at the end
+    of each init window, the model simulates ``horizon`` steps and the loss is
+    the mean squared error of the simulated outputs (standardised). The physical
+    parameters start from ``physics.fit_simulation`` and are trained with the
+    networks (``train_physics=True``, bounds kept by reparametrisation as in
+    :class:`HybridEnsembleRegressor`) or held there. Before the joint training
+    the encoder is fitted to the physics' least-squares state estimates of the
+    training windows, so the joint training starts from the physics model.
+    Adam on mini-batches of ``batch_size`` sub-sequences (all batches of equal
+    size); early stopping on the free-run error over the last
+    ``validation_fraction`` of every record (each tail simulated from its first
+    ``n_init`` samples, as :meth:`simulate` would), keeping the best epoch (the
+    starting model included).
+
+    :meth:`fit` and :meth:`predict` follow scikit-learn's convention on windows
+    of history (see :func:`~skhybrid.preprocessing.make_windows`): each row's
+    ``n_steps`` steps are the init window and the target is the output one step
+    later (``horizon=1`` there).
+
+    Parameters
+    ----------
+    physics : StateSpaceModel
+        The physics: its ``rhs`` must run on torch (written with ``xp``) and use
+        ``method="rk4"`` or ``"euler"`` (or ``time="discrete"``).
+    n_init : int, default=20
+        Samples of the initialisation window read by the encoder in
+        :meth:`fit_simulation` and :meth:`simulate`.
+    horizon : int, default=20
+        Simulated steps per training sub-sequence (``fit_simulation``).
+    n_steps : int, default=1
+        Time steps per row of ``X`` in :meth:`fit` and :meth:`predict` (the init
+        window there).
+    hidden_layer_sizes : tuple of int, default=(32, 32)
+        Hidden layers (tanh) of the state-correction network.
+    encoder_hidden_layer_sizes : tuple of int, default=(32,)
+        Hidden layers (tanh) of the encoder.
+    correction_scale : float, default=0.01
+        Factor ``c`` of the correction network's output, in units of each
+        state's typical change per sample.
+    correction_states : sequence of str or int, or None, default=None
+        The states the correction network reads (names of
+        ``physics.state_names`` or indices), besides the inputs; ``None`` reads
+        all. Leave out states whose absolute level does not matter to the
+        dynamics (an angle that drifts without bound), so that the network does
+        not extrapolate.
+    corrected_states : sequence of str or int, or None, default=None
+        The states whose update the network corrects (names or indices);
+        ``None`` corrects all. Correcting only where the physics is uncertain
+        (the speeds of a mechanism, not the kinematics ``d angle/dt = speed``)
+        keeps the rest exact.
+    encoder_absolute : bool, default=True
+        Whether the encoder reads the absolute level of the window's outputs.
+        It always reads the outputs relative to the window's last sample and
+        starts the observed states from their last measured values; ``False``
+        makes the encoder invariant to a constant offset of the outputs (a
+        drive's angle).
+    warm_start_physics : bool, default=True
+        Start the physical parameters from ``physics.fit_simulation`` (or
+        ``physics.fit`` in :meth:`fit`); ``False`` starts them from
+        ``physics.params`` (for example values found by an earlier fit).
+    train_physics : bool, default=True
+        Train the free physical parameters jointly; ``False`` holds them at the
+        values ``physics.fit_simulation`` (or ``physics.fit``) found.
+    lr : float, default=1e-3
+        Learning rate of Adam.
+    max_epochs : int, default=100
+        Most passes over the training sub-sequences.
+    batch_size : int, default=32
+        Sub-sequences per mini-batch.
+    patience : int, default=10
+        Epochs without improvement of the validation loss before stopping.
+    validation_fraction : float, default=0.2
+        Fraction at the end of every record (of the rows, in :meth:`fit`)
+        held out for early stopping; ``0`` stops on the training loss.
+    stride : int, default=1
+        Samples between the starts of consecutive training sub-sequences (1:
+        every sub-sequence; larger values train faster on long records).
+    physics_initial_state : bool, default=True
+        Whether the encoder corrects the physics' own estimate of the state
+        (the least-squares fit of :meth:`StateSpaceModel.estimate_initial_state`
+        over the window at the starting parameters, run to the window's last
+        sample); the encoder's output layer starts at zero, so training starts
+        from the physics model. ``False``: the encoder alone (SUBNET), first
+        fitted to those estimates for ``encoder_epochs`` epochs.
+    encoder_epochs : int, default=50
+        Epochs of the encoder's pre-training with
+        ``physics_initial_state=False`` (0 to skip).
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initial weights and the batch order; the global torch random
+        state is left untouched.
+
+    Attributes
+    ----------
+    physics_ : StateSpaceModel
+        The physics clone after its warm start (its ``params_`` are the
+        starting values).
+    params_ : dict
+        Physical parameters after the joint training.
+    params_init_ : dict
+        Their starting values.
+    encoder_ : torch.nn.Module
+        The trained encoder (float64).
+    correction_ : torch.nn.Module
+        The trained state-correction network (float64).
+    state_mean_ : ndarray of shape (n_states,)
+        Mean of the physics' states over the training data.
+    state_scale_ : ndarray of shape (n_states,)
+        Scale of each state.
+    step_scale_ : ndarray of shape (n_states,)
+        Typical change of each state per sample (the unit of the correction).
+    loss_curve_ : list of float
+        Training loss after each epoch.
+    validation_scores_ : list of float
+        Validation loss after each epoch (empty without a validation part).
+    n_epochs_ : int
+        Epochs run.
+    n_features_in_ : int
+        Columns of a row of ``X`` (``n_steps`` steps).
+    n_outputs_ : int
+        Number of outputs.
+    n_inputs_ : int
+        Number of inputs.
+
+    See Also
+    --------
+    HybridEnsembleRegressor : Joint training on windows, one step ahead.
+    skhybrid.domain.StateSpaceModel : The physics alone.
+
+    References
+    ----------
+    G. I. Beintema, R. Toth and M. Schoukens, "Nonlinear state-space
+    identification using deep encoder networks", Proc. L4DC, 2021.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.domain import StateSpaceModel
+    >>> from skhybrid.hybrid import StateSpaceHybridRegressor
+    >>> def decay(x, u, *, xp, a):
+    ...     return a * x + u
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.uniform(-1, 1, (4, 100, 1))
+    >>> y = np.zeros((4, 100, 1))
+    >>> for t in range(99):
+    ...     y[:, t + 1] = 0.8 * y[:, t] + u[:, t] + 0.1 * np.sin(3 * y[:, t])
+    >>> physics = StateSpaceModel(
+    ...     decay, {"a": 0.5}, state_names=["y"], observed=["y"], time="discrete",
+    ... )
+    >>> model = StateSpaceHybridRegressor(
+    ...     physics, n_init=2, horizon=5, max_epochs=5, random_state=0,
+    ... ).fit_simulation(u, y)
+    >>> model.simulate(u[0], y[0, :2]).shape
+    (100, 1)
+    """
+
+    _parameter_constraints = {
+        "physics": [StateSpaceModel],
+        "n_init": [Interval(Integral, 1, None, closed="left")],
+        "horizon": [Interval(Integral, 1, None, closed="left")],
+        "n_steps": [Interval(Integral, 1, None, closed="left")],
+        "hidden_layer_sizes": [tuple, list],
+        "encoder_hidden_layer_sizes": [tuple, list],
+        "correction_scale": [Interval(Real, 0, None, closed="left")],
+        "correction_states": [list, tuple, None],
+        "corrected_states": [list, tuple, None],
+        "encoder_absolute": ["boolean"],
+        "warm_start_physics": ["boolean"],
+        "train_physics": ["boolean"],
+        "lr": [Interval(Real, 0, None, closed="neither")],
+        "max_epochs": [Interval(Integral, 1, None, closed="left")],
+        "batch_size": [Interval(Integral, 1, None, closed="left")],
+        "patience": [Interval(Integral, 1, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "stride": [Interval(Integral, 1, None, closed="left")],
+        "physics_initial_state": ["boolean"],
+        "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
+        "random_state": ["random_state"],
+    }
+
+    def __init__(
+        self,
+        physics,
+        *,
+        n_init=20,
+        horizon=20,
+        n_steps=1,
+        hidden_layer_sizes=(32, 32),
+        encoder_hidden_layer_sizes=(32,),
+        correction_scale=0.01,
+        correction_states=None,
+        corrected_states=None,
+        encoder_absolute=True,
+        warm_start_physics=True,
+        train_physics=True,
+        lr=1e-3,
+        max_epochs=100,
+        batch_size=32,
+        patience=10,
+        validation_fraction=0.2,
+        stride=1,
+        physics_initial_state=True,
+        encoder_epochs=50,
+        random_state=None,
+    ):
+        self.physics = physics
+        self.n_init = n_init
+        self.horizon = horizon
+        self.n_steps = n_steps
+        self.hidden_layer_sizes = hidden_layer_sizes
+        self.encoder_hidden_layer_sizes = encoder_hidden_layer_sizes
+        self.correction_scale = correction_scale
+        self.correction_states = correction_states
+        self.corrected_states = corrected_states
+        self.encoder_absolute = encoder_absolute
+        self.warm_start_physics = warm_start_physics
+        self.train_physics = train_physics
+        self.lr = lr
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.patience = patience
+        self.validation_fraction = validation_fraction
+        self.stride = stride
+        self.physics_initial_state = physics_initial_state
+        self.encoder_epochs = encoder_epochs
+        self.random_state = random_state
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.regressor_tags.poor_score = True
+        try:
+            physics_tags = self.physics.__sklearn_tags__()
+            tags.target_tags.multi_output = physics_tags.target_tags.multi_output
+        except AttributeError:  # pragma: no cover
+            tags.target_tags.multi_output = False
+        return tags
+
+    # -- checks --------------------------------------------------------------------
+    def _check_settings(self):
+        for name in ("hidden_layer_sizes", "encoder_hidden_layer_sizes"):
+            value = getattr(self, name)
+            if not all(
+                isinstance(v, Integral) and not isinstance(v, bool) and v >= 1
+                for v in value
+            ):
+                raise ValueError(
+                    f"{name} must hold positive ints; got {name}={value!r}."
+                )
+        physics = self.physics
+        names = list(physics.state_names)
+        self._corr_idx = _state_indices(
+            self.correction_states, names, "correction_states"
+        )
+        corrected = _state_indices(self.corrected_states, names, "corrected_states")
+        self._corr_mask = np.isin(np.arange(len(names)), corrected).astype(float)
+        if physics.time == "continuous" and physics.method == "solve_ivp":
+            raise ValueError(
+                "physics must integrate in torch: method='rk4' or 'euler'; got "
+                f"physics.method={physics.method!r}."
+            )
+
+    # -- set-up --------------------------------------------------------------------
+    def _setup(self, physics, Y_win, U_win, states, steps, n_in_window):
+        """Scales, networks, parameter transform; ``Y_win`` etc. in NumPy."""
+        import torch
+
+        spec = physics._spec
+        self._spec = spec
+        params = physics.params_
+        theta0 = (
+            np.concatenate([np.ravel(params[k]) for k in spec.free]).astype(float)
+            if spec.free
+            else np.zeros(0)
+        )
+        self._transform = _BoundTransform(theta0, spec.lower, spec.upper)
+        self.params_init_ = dict(params)
+        self.state_mean_ = states.mean(axis=0)
+        self.state_scale_ = _safe_scale(states)
+        self.step_scale_ = _safe_scale(steps) if len(steps) > 1 else self.state_scale_
+        _, observed, _ = physics._structure()
+        self._observed = observed
+        self.y_mean_ = Y_win.reshape(-1, Y_win.shape[-1]).mean(axis=0)
+        self.y_scale_ = _safe_scale(Y_win.reshape(-1, Y_win.shape[-1]))
+        rel = Y_win[:, : n_in_window - 1] - Y_win[:, n_in_window - 1 : n_in_window]
+        rel = rel.reshape(-1, Y_win.shape[-1])
+        self.y_rel_scale_ = (
+            np.sqrt(np.mean(rel**2, axis=0)) if len(rel) else np.ones(rel.shape[1])
+        )
+        self.y_rel_scale_ = np.where(self.y_rel_scale_ > 0, self.y_rel_scale_, 1.0)
+        if U_win.shape[-1]:
+            flat_u = U_win.reshape(-1, U_win.shape[-1])
+            self.u_mean_, self.u_scale_ = flat_u.mean(axis=0), _safe_scale(flat_u)
+        else:
+            self.u_mean_ = self.u_scale_ = np.zeros(0)
+        n_states = states.shape[1]
+        n_enc = (n_in_window - 1) * (self.n_outputs_ + self.n_inputs_)
+        n_enc += self.n_outputs_ if self.encoder_absolute else 0
+        n_enc = max(n_enc, 1)
+        rng = check_random_state(self.random_state)
+        seed = int(rng.randint(np.iinfo(np.int32).max))
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            self.encoder_ = _mlp(
+                n_enc, n_states, self.encoder_hidden_layer_sizes, torch
+            )
+            self.correction_ = _mlp(
+                len(self._corr_idx) + self.n_inputs_,
+                n_states,
+                self.hidden_layer_sizes,
+                torch,
+            )
+        self._z = torch.as_tensor(self._transform.z0.copy())
+        return rng
+
+    def _params(self, z):
+        import torch
+
+        from skhybrid.utils._array_api import get_namespace
+
+        theta = self._transform.to_theta(z, torch)
+        return self._spec.to_dict(theta, xp=get_namespace(theta))
+
+    def _encode(self, Yw, Uw, prior=None):
+        """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
+        import torch
+
+        n = Yw.shape[0]
+        y_scale = torch.as_tensor(self.y_scale_)
+        last = Yw[:, -1]
+        rel_scale = torch.as_tensor(self.y_rel_scale_)
+        parts = [((Yw[:, :-1] - last[:, None]) / rel_scale).reshape(n, -1)]
+        if self.encoder_absolute:
+            parts.append((last - torch.as_tensor(self.y_mean_)) / y_scale)
+        if self.n_inputs_ and Uw.shape[1]:
+            us = (Uw - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
+            parts.append(us.reshape(n, -1))
+        feats = torch.cat(parts, dim=1)
+        if feats.shape[1] == 0:
+            feats = torch.zeros((n, 1), dtype=Yw.dtype)
+        z = self.encoder_(feats)
+        base = torch.as_tensor(self.state_mean_).expand(n, -1)
+        scale = torch.as_tensor(self.state_scale_)
+        if prior is not None:
+            base = prior
+        if self._observed is not None:
+            if prior is None:
+                base = base.clone()
+                base[:, self._observed] = last
+            scale = scale.clone()
+            scale[self._observed] = torch.as_tensor(self.step_scale_)[self._observed]
+        return base + scale * z
+
+    def _advance(self, x, u, params):
+        import torch
+
+        x_next = self.physics_.step(x, u, params)
+        idx = self._corr_idx
+        xs = (x[:, idx] - torch.as_tensor(self.state_mean_[idx])) / torch.as_tensor(
+            self.state_scale_[idx]
+        )
+        feats = [xs]
+        if self.n_inputs_:
+            feats.append(
+                (u - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
+            )
+        corr = self.correction_(torch.cat(feats, dim=1))
+        scale = self.correction_scale * self.step_scale_ * self._corr_mask
+        return x_next + torch.as_tensor(scale) * corr
+
+    def _rollout(self, Yw, Uw, U_future, params, prior=None):
+        """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
+
+        ``U_future[:, 0]`` acts from the window's last sample.
+        """
+        import torch
+
+        x = self._encode(Yw, Uw, prior)
+        outs = []
+        for t in range(U_future.shape[1]):
+            x = self._advance(x, U_future[:, t], params)
+            outs.append(self.physics_.observe(x, params))
+        return torch.stack(outs, dim=1)
+
+    # -- training ------------------------------------------------------------------
+    def _train(self, windows_train, windows_valid, rng, x_targets):
+        """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m), prior)``.
+
+        ``prior`` is the physics' state at the window's last sample ``(n,
+        n_states)`` (or None without ``physics_initial_state``).
+        """
+        import torch
+
+        k = self._k
+
+        def tensors(w):
+            return tuple(None if a is None else torch.as_tensor(a) for a in w)
+
+        Ytr, Utr, Ptr = tensors(windows_train)
+        has_valid = windows_valid is not None and len(windows_valid[0]) > 0
+        if has_valid:
+            Yva, Uva, Pva = tensors(windows_valid)
+        y_scale = torch.as_tensor(self.y_scale_)
+        n = Ytr.shape[0]
+        batch = min(self.batch_size, n)
+        n_batches = max(1, n // batch)
+
+        def batches():
+            perm = rng.permutation(n)
+            return [perm[i * batch : (i + 1) * batch] for i in range(n_batches)]
+
+        # 1. Encoder pre-training on the physics' state estimates.
+        # The correction starts at zero (a random start would add a drift that
+        # accumulates in free run), the encoder too where it corrects the
+        # physics' estimate: training starts from the physics model.
+        zeroed = [self.correction_]
+        if self.physics_initial_state:
+            zeroed.append(self.encoder_)
+        for module in zeroed:
+            last = [m for m in module if isinstance(m, torch.nn.Linear)][-1]
+            with torch.no_grad():
+                last.weight.zero_()
+                last.bias.zero_()
+        if (
+            not self.physics_initial_state
+            and self.encoder_epochs
+            and x_targets is not None
+        ):
+            target = torch.as_tensor((x_targets - self.state_mean_) / self.state_scale_)
+            opt = torch.optim.Adam(self.encoder_.parameters(), lr=self.lr * 3)
+            mean, scale = (
+                torch.as_tensor(self.state_mean_),
+                torch.as_tensor(self.state_scale_),
+            )
+            for _ in range(self.encoder_epochs):
+                for idx in batches():
+                    idx = torch.as_tensor(idx)
+                    opt.zero_grad()
+                    pred = (
+                        self._encode(Ytr[idx, :k], Utr[idx, : k - 1]) - mean
+                    ) / scale
+                    loss = torch.mean((pred - target[idx]) ** 2)
+                    loss.backward()
+                    opt.step()
+
+        # 2. Joint training by the simulation error.
+        z = torch.nn.Parameter(self._z.clone())
+        groups = [
+            {
+                "params": list(self.encoder_.parameters())
+                + list(self.correction_.parameters())
+            }
+        ]
+        if self.train_physics and z.numel():
+            groups.append({"params": [z]})
+        optimizer = torch.optim.Adam(groups, lr=self.lr)
+
+        def loss_on(Y, U, P):
+            params = self._params(z)
+            sim = self._rollout(Y[:, :k], U[:, : k - 1], U[:, k - 1 : -1], params, P)
+            return torch.mean(((sim - Y[:, k:]) / y_scale) ** 2)
+
+        def evaluate(Y, U, P):
+            with torch.no_grad():
+                score = float(loss_on(Y, U, P))
+            return score if math.isfinite(score) else math.inf
+
+        def pick(P, idx):
+            return None if P is None else P[idx]
+
+        self.loss_curve_, self.validation_scores_ = [], []
+        # The starting model (the physics, a small correction) is a candidate.
+        best = evaluate(Yva, Uva, Pva) if has_valid else evaluate(Ytr, Utr, Ptr)
+        best_state = (
+            z.detach().clone(),
+            copy.deepcopy(self.encoder_.state_dict()),
+            copy.deepcopy(self.correction_.state_dict()),
+        )
+        since_best = 0
+        first = None
+        for epoch in range(self.max_epochs):
+            total = 0.0
+            for idx in batches():
+                idx = torch.as_tensor(idx)
+                optimizer.zero_grad()
+                loss = loss_on(Ytr[idx], Utr[idx], pick(Ptr, idx))
+                if not torch.isfinite(loss):
+                    raise TrainingDivergedError(
+                        f"StateSpaceHybridRegressor: the simulation loss became "
+                        f"{float(loss)} in epoch {epoch + 1}; lower the learning "
+                        f"rate (got lr={self.lr}) or the horizon (got "
+                        f"horizon={self.horizon})."
+                    )
+                loss.backward()
+                optimizer.step()
+                total += float(loss.detach())
+            train_loss = total / n_batches
+            check_divergence(
+                train_loss,
+                first,
+                name="StateSpaceHybridRegressor's simulation loss",
+                epoch=epoch + 1,
+                lr=self.lr,
+            )
+            first = train_loss if first is None else first
+            self.loss_curve_.append(train_loss)
+            score = train_loss
+            if has_valid:
+                score = evaluate(Yva, Uva, Pva)
+                self.validation_scores_.append(score)
+            if score < best:
+                best, since_best = score, 0
+                best_state = (
+                    z.detach().clone(),
+                    copy.deepcopy(self.encoder_.state_dict()),
+                    copy.deepcopy(self.correction_.state_dict()),
+                )
+            else:
+                since_best += 1
+                if since_best >= self.patience:
+                    break
+        self.n_epochs_ = len(self.loss_curve_)
+        if best_state is not None:
+            self._z = best_state[0]
+            self.encoder_.load_state_dict(best_state[1])
+            self.correction_.load_state_dict(best_state[2])
+        for module in (self.encoder_, self.correction_):
+            module.eval()
+            for p in module.parameters():
+                p.requires_grad_(False)
+        theta = self._transform.to_theta(self._z, torch).numpy().copy()
+        self.params_ = self._spec.to_dict(theta)
+        self._params_t = self._params(self._z)
+
+    def _states_along(self, physics, x0, U, n_times):
+        """Physics states ``(n, n_times, n_states)`` from ``x0`` under ``U``."""
+        x, out = np.asarray(x0, dtype=float), []
+        with np.errstate(all="ignore"):
+            for t in range(n_times):
+                out.append(x)
+                if t < n_times - 1:
+                    x = physics.step(x, U[:, t])
+        return np.stack(out, axis=1)
+
+    def _prior(self, Y, U):
+        """The physics' state at the last sample of windows ``Y``, ``U`` (or None)."""
+        if not self.physics_initial_state:
+            return None
+        k = Y.shape[1]
+        states, good = self._window_targets(self.physics_, Y, U, k)
+        return np.where(good[:, None], states[:, k - 1], self.state_mean_)
+
+    def _window_targets(self, physics, Y, U, k):
+        """Physics' state estimates at the last sample of each window."""
+        structure = physics._structure()
+        x0 = physics._estimate_x0(Y[:, :k], U[:, :k], physics.params_, structure)
+        states = self._states_along(physics, x0, U, k)
+        good = np.all(np.isfinite(states), axis=(1, 2))
+        return states, good
+
+    # -- records -------------------------------------------------------------------
+    def fit_simulation(self, inputs, outputs):
+        """Train on whole records by the simulation error over ``horizon`` steps.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of (n_times_i, n_inputs) arrays
+            Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
+            ``t + 1``.
+        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
+n_outputs) or list of (n_times_i, n_outputs) arrays
+            Measured outputs of each record, aligned with ``inputs``.
+
+        Returns
+        -------
+        self : object
+            The fitted model.
+        """
+        return self._fit_simulation(inputs, outputs)
+
+    @transactional
+    @_fit_context(prefer_skip_nested_validation=True)
+    def _fit_simulation(self, inputs, outputs):
+        self._check_settings()
+        U_list, _ = _as_list(inputs, "inputs")
+        Y_list, _ = _as_list(outputs, "outputs")
+        if len(U_list) != len(Y_list):
+            raise ValueError(
+                f"inputs holds {len(U_list)} record(s) but outputs {len(Y_list)}; "
+                "give one outputs array per inputs array."
+            )
+        n_inputs = _check_widths(U_list, "inputs")
+        n_outputs = _check_widths(Y_list, "outputs")
+        k, T = self.n_init, self.horizon
+        stride = self.stride
+        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
+            if len(u) != len(y):
+                raise ValueError(
+                    f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
+                    f"{len(y)}; each record's inputs and outputs must be aligned."
+                )
+            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+                raise ValueError(
+                    f"inputs[{i}] or outputs[{i}] holds NaN or infinite values; "
+                    "records must be finite."
+                )
+        physics = clone(self.physics).set_params(n_init=k)
+        self._start_physics(physics, "fit_simulation", U_list, Y_list)
+
+        L = k + T
+        train, valid = [], []
+        for u, y in zip(U_list, Y_list, strict=True):
+            n_valid = round(self.validation_fraction * len(y))
+            cut = len(y) - n_valid if n_valid >= L else len(y)
+            for s in range(0, cut - L + 1, stride):
+                train.append((y[s : s + L], u[s : s + L]))
+            if cut < len(y):
+                # The whole tail, simulated from its first n_init samples.
+                valid.append((y[cut:], u[cut:]))
+        if not train:
+            raise ValueError(
+                f"no record holds n_init + horizon = {k} + {T} = {L} samples in its "
+                "training part; lower n_init or horizon (or validation_fraction)."
+            )
+        Ytr = np.stack([a for a, _ in train])
+        Utr = np.stack([b for _, b in train])
+        wv = None
+        if valid:
+            n_tail = min(len(a) for a, _ in valid)
+            wv = (
+                np.stack([a[:n_tail] for a, _ in valid]),
+                np.stack([b[:n_tail] for _, b in valid]),
+            )
+        return self._fit_windows(physics, Ytr, Utr, wv, k, n_outputs, n_inputs)
+
+    def _start_physics(self, physics, method, a, b):
+        """Warm-start ``physics`` by ``method(a, b)``, or set it up at its params."""
+        if self.warm_start_physics:
+            getattr(physics, method)(a, b)
+            return
+        physics._structure()
+        init = physics._initial_params()
+        spec = _ParameterSpec(init, physics.fixed, physics._resolved_bounds(init))
+        physics._spec = spec
+        physics.params_ = spec.to_dict(spec.x0)
+
+    def _fit_windows(self, physics, Ytr, Utr, valid, k, n_outputs, n_inputs):
+        self.physics_ = physics
+        self.n_outputs_, self.n_inputs_ = n_outputs, n_inputs
+        self.n_features_in_ = self.n_steps * (n_outputs + n_inputs)
+        self._k = k
+        states, good = self._window_targets(physics, Ytr, Utr, Ytr.shape[1])
+        flat = states[good].reshape(-1, states.shape[-1])
+        steps = np.diff(states[good], axis=1).reshape(-1, states.shape[-1])
+        if flat.size == 0:
+            flat = np.zeros((1, states.shape[-1]))
+        x_targets = states[:, k - 1]
+        rng = self._setup(physics, Ytr, Utr, flat, steps, k)
+        if not np.all(good):
+            x_targets = np.where(good[:, None], x_targets, self.state_mean_)
+        prior = x_targets if self.physics_initial_state else None
+        if valid is not None:
+            valid = (*valid, self._prior(valid[0][:, :k], valid[1][:, :k]))
+        self._train((Ytr, Utr, prior), valid, rng, x_targets)
+        return self
+
+    # -- windows -------------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Train on windows of history, one step ahead.
+
+        Each row's ``n_steps`` steps are the encoder's window; the model
+        advances its last state one step and the loss is the error of the
+        predicted outputs.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_steps * (n_outputs + n_inputs))
+            Windows of ``n_steps`` time steps, oldest first, each step
+            ``[outputs..., inputs...]``.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Outputs at the step after each window.
+
+        Returns
+        -------
+        self : object
+            The fitted model.
+        """
+        self._check_settings()
+        multi = self.__sklearn_tags__().target_tags.multi_output
+        X, y = validate_data(
+            self,
+            X,
+            y,
+            multi_output=multi,
+            y_numeric=True,
+            dtype=np.float64,
+            ensure_min_samples=2,
+        )
+        self._y_1d = y.ndim == 1
+        Y = y[:, None] if self._y_1d else y
+        n_outputs = Y.shape[1]
+        if X.shape[1] % self.n_steps:
+            raise ValueError(
+                f"X has {X.shape[1]} columns, not a whole number of n_steps="
+                f"{self.n_steps} steps."
+            )
+        width = X.shape[1] // self.n_steps
+        if width < n_outputs:
+            raise ValueError(
+                f"a time step of X has {width} column(s), fewer than the "
+                f"{n_outputs} output(s); each step is [outputs..., inputs...]."
+            )
+        n_features = X.shape[1]
+        physics = clone(self.physics).set_params(n_steps=self.n_steps)
+        self._start_physics(physics, "fit", X, y)
+        Ys, Us = self._split(X, n_outputs)
+        # Sequences of n_steps + 1 samples: the window, then the target.
+        Yseq = np.concatenate([Ys, Y[:, None, :]], axis=1)
+        Useq = np.concatenate([Us, np.zeros_like(Us[:, :1])], axis=1)
+        n = len(X)
+        n_valid = round(self.validation_fraction * n)
+        valid = None
+        if n_valid >= 1 and n - n_valid >= 1:
+            valid = (Yseq[n - n_valid :], Useq[n - n_valid :])
+            Yseq, Useq = Yseq[: n - n_valid], Useq[: n - n_valid]
+        self._fit_windows(
+            physics, Yseq, Useq, valid, self.n_steps, n_outputs, width - n_outputs
+        )
+        self.n_features_in_ = n_features
+        return self
+
+    def _split(self, X, n_outputs):
+        steps = split_steps(X, self.n_steps)
+        return steps[:, :, :n_outputs], steps[:, :, n_outputs:]
+
+    def predict(self, X):
+        """Predict the outputs one step after each window.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Windows of ``n_steps`` time steps, each ``[outputs..., inputs...]``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Predicted outputs, 1-D when ``y`` was 1-D in ``fit``.
+        """
+        import torch
+
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        k = self.n_steps
+        if self._k != k:
+            raise ValueError(
+                f"predict reads windows of n_steps={k} steps, but the model was "
+                f"trained with fit_simulation on init windows of n_init={self._k}; "
+                "use simulate, or train with fit."
+            )
+        Ys, Us = self._split(X, self.n_outputs_)
+        prior = self._prior(Ys, Us)
+        with torch.no_grad():
+            out = self._rollout(
+                torch.as_tensor(Ys),
+                torch.as_tensor(Us[:, : k - 1]),
+                torch.as_tensor(Us[:, k - 1 :]),
+                self._params_t,
+                None if prior is None else torch.as_tensor(prior),
+            )[:, 0].numpy()
+        return out[:, 0] if getattr(self, "_y_1d", False) else out
+
+    # -- simulation ----------------------------------------------------------------
+    def simulate(self, inputs, initial):
+        """Simulate the fitted model in free run from measured initial windows.
+
+        The encoder reads the last ``n_init`` samples of each initial window
+        (``n_steps`` after :meth:`fit`), then the model runs free to the end of
+        the inputs. Follows the contract of :func:`skhybrid.simulation.simulate`:
+        the first ``len(initial)`` samples returned are the measured ones.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
+n_times, n_inputs) or list of 2-D arrays
+            Inputs over the whole experiment, initial window included.
+        initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
+n_init, n_outputs) or list of 2-D arrays
+            Measured outputs of the first time steps (at least ``n_init``).
+
+        Returns
+        -------
+        outputs : ndarray or list of ndarray
+            Simulated outputs in the container form of ``inputs``.
+        """
+        import torch
+
+        check_is_fitted(self)
+        U_list, form = _as_list(inputs, "inputs")
+        Y_list, init_form = _as_list(initial, "initial")
+        if init_form != form or len(U_list) != len(Y_list):
+            raise ValueError(
+                f"initial must match inputs: {len(U_list)} experiment(s) given as a "
+                f"{form} container, but initial holds {len(Y_list)} as a "
+                f"{init_form} container."
+            )
+        if _check_widths(U_list, "inputs") != self.n_inputs_:
+            raise ValueError(
+                f"the model was fitted with {self.n_inputs_} input column(s); got "
+                f"{U_list[0].shape[1]}."
+            )
+        if _check_widths(Y_list, "initial") != self.n_outputs_:
+            raise ValueError(
+                f"the model was fitted with {self.n_outputs_} output column(s); got "
+                f"{Y_list[0].shape[1]} in initial."
+            )
+        k = self._k
+        lengths = np.array([len(u) for u in U_list])
+        starts = np.array([len(y) for y in Y_list])
+        for i, (s, n) in enumerate(zip(starts, lengths, strict=True)):
+            if s < k:
+                raise ValueError(
+                    f"initial[{i}] holds {s} time steps; the encoder reads n_init="
+                    f"{k}, so at least {k} measured steps must start the simulation."
+                )
+            if s > n:
+                raise ValueError(
+                    f"initial[{i}] holds {s} time steps but inputs[{i}] only {n}; "
+                    "inputs cover the whole experiment, initial window included."
+                )
+        n_max = int(lengths.max())
+        out = np.zeros((len(U_list), n_max, self.n_outputs_))
+        pairs = sorted({(int(a), int(b)) for a, b in zip(starts, lengths, strict=True)})
+        for s, n in pairs:
+            idx = [i for i in range(len(U_list)) if (starts[i], lengths[i]) == (s, n)]
+            for i in idx:
+                out[i, :s] = Y_list[i]
+            if n == s:
+                continue
+            U = np.stack([U_list[i][:n] for i in idx])
+            Yw = np.stack([Y_list[i][s - k : s] for i in idx])
+            prior = self._prior(Yw, U[:, s - k : s])
+            u = torch.as_tensor(U)
+            with torch.no_grad():
+                sim = self._rollout(
+                    torch.as_tensor(Yw),
+                    u[:, s - k : s - 1],
+                    u[:, s - 1 : n - 1],
+                    self._params_t,
+                    None if prior is None else torch.as_tensor(prior),
+                ).numpy()
+            finite = np.all(np.isfinite(sim), axis=2)
+            if not np.all(finite):
+                j, t = np.argwhere(~finite)[0]
+                raise SimulationDivergedError(
+                    f"the simulation diverged at time step {s + t}: trajectory "
+                    f"{idx[j]} reached a non-finite output."
+                )
+            out[idx, s:n] = sim
+        return _pack(out, lengths, form)

@@ -1,0 +1,214 @@
+"""StateSpaceHybridRegressor: contract, determinism, errors, transactions.
+
+The DC motor comparison with the physics alone and the windowed hybrids is
+benchmarks/bench_state_space_hybrid.py; the slow test runs it with a small budget.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from skhybrid.domain import StateSpaceModel
+from skhybrid.exceptions import TrainingDivergedError
+from skhybrid.hybrid import StateSpaceHybridRegressor
+from skhybrid.preprocessing import make_windows
+
+
+def decay(x, u, *, xp, a):
+    return a * x + u
+
+
+def oscillator(x, u, *, xp, omega):
+    return xp.stack([x[:, 1], -(omega**2) * x[:, 0] + u[:, 0]], axis=1)
+
+
+def _records(n=4, length=80, seed=0):
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, (n, length, 1))
+    y = np.zeros((n, length, 1))
+    for t in range(length - 1):
+        y[:, t + 1] = 0.8 * y[:, t] + u[:, t] + 0.1 * np.sin(3 * y[:, t])
+    return u, y
+
+
+def _physics(**kwargs):
+    return StateSpaceModel(
+        decay, {"a": 0.5}, state_names=["y"], observed=["y"], time="discrete", **kwargs
+    )
+
+
+def _model(**kwargs):
+    params = dict(n_init=3, horizon=5, max_epochs=4, random_state=0)
+    params.update(kwargs)
+    return StateSpaceHybridRegressor(_physics(), **params)
+
+
+def test_simulate_contract_and_forms():
+    u, y = _records()
+    model = _model().fit_simulation(u, y)
+    sim = model.simulate(u, y[:, :5])
+    assert sim.shape == y.shape
+    np.testing.assert_array_equal(sim[:, :5], y[:, :5])
+    assert np.all(np.isfinite(sim))
+    as_list = model.simulate([u[0], u[1][:50]], [y[0, :3], y[1, :4]])
+    assert [a.shape for a in as_list] == [(80, 1), (50, 1)]
+    np.testing.assert_allclose(as_list[0], model.simulate(u[0], y[0, :3]))
+    assert model.simulate(u[0], y[0, :3]).shape == (80, 1)
+
+
+def test_improves_on_the_physics_it_starts_from():
+    u, y = _records(n=6, length=120)
+    model = _model(max_epochs=40, lr=3e-3, horizon=10, patience=40).fit_simulation(u, y)
+    ut, yt = _records(n=3, length=120, seed=1)
+    physics = _physics(n_init=3).fit_simulation(u, y)
+    err_physics = np.sqrt(np.mean((physics.simulate(ut, yt[:, :3]) - yt) ** 2))
+    err_hybrid = np.sqrt(np.mean((model.simulate(ut, yt[:, :3]) - yt) ** 2))
+    assert err_hybrid < err_physics
+
+
+def test_same_seed_same_model():
+    u, y = _records()
+    a = _model().fit_simulation(u, y).simulate(u, y[:, :3])
+    b = _model().fit_simulation(u, y).simulate(u, y[:, :3])
+    np.testing.assert_array_equal(a, b)
+
+
+def test_train_physics_false_holds_the_warm_start():
+    u, y = _records()
+    model = _model(train_physics=False).fit_simulation(u, y)
+    assert model.params_ == pytest.approx(model.physics_.params_)
+    assert model.params_init_ == pytest.approx(model.physics_.params_)
+
+
+def test_latent_state_and_physics_free_encoder():
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, (3, 100, 1))
+    truth = StateSpaceModel(
+        oscillator,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        fixed=("omega",),
+    ).fit_simulation(u, np.zeros((3, 100, 1)))
+    y = truth.simulate_from_state(u, [[0.3, 0.0], [0.0, 0.5], [-0.2, 0.1]])
+    physics = StateSpaceModel(
+        oscillator, {"omega": 1.8}, state_names=["p", "v"], observed=["p"], dt=0.1
+    )
+    for prior in (True, False):
+        model = StateSpaceHybridRegressor(
+            physics,
+            n_init=5,
+            horizon=10,
+            max_epochs=3,
+            encoder_epochs=3,
+            physics_initial_state=prior,
+            correction_states=["v"],
+            random_state=0,
+        ).fit_simulation(u, y)
+        assert model.simulate(u, y[:, :5]).shape == y.shape
+
+
+def test_windows_fit_predict_and_simulate():
+    u, y = _records()
+    X, target = make_windows(list(y), list(u), n_steps=3)
+    model = StateSpaceHybridRegressor(
+        _physics(), n_steps=3, max_epochs=3, random_state=0
+    ).fit(X, target[:, 0])
+    pred = model.predict(X[:5])
+    assert pred.shape == (5,)
+    assert model.simulate(u[0], y[0, :3]).shape == (80, 1)
+    records = _model().fit_simulation(u, y)
+    with pytest.raises(ValueError, match="n_init=3"):
+        StateSpaceHybridRegressor(
+            _physics(), n_init=3, n_steps=2, max_epochs=1
+        ).fit_simulation(u, y).predict(make_windows(list(y), list(u), n_steps=2)[0])
+    assert records.predict is not None
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"correction_states": ["nope"]}, r"correction_states=\['nope'\]"),
+        ({"corrected_states": [3]}, r"corrected_states=\[3\]"),
+        ({"hidden_layer_sizes": (0,)}, r"hidden_layer_sizes=\(0,\)"),
+        ({"horizon": 500}, r"n_init \+ horizon = 3 \+ 500"),
+    ],
+)
+def test_bad_settings_raise_naming_parameter_and_value(kwargs, match):
+    u, y = _records()
+    with pytest.raises(ValueError, match=match):
+        _model(**kwargs).fit_simulation(u, y)
+
+
+def test_solve_ivp_physics_is_rejected():
+    physics = StateSpaceModel(
+        oscillator,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        method="solve_ivp",
+    )
+    u, y = _records()
+    with pytest.raises(ValueError, match="method='solve_ivp'"):
+        StateSpaceHybridRegressor(physics, n_init=3, horizon=5).fit_simulation(u, y)
+
+
+def test_simulate_needs_n_init_samples():
+    u, y = _records()
+    model = _model().fit_simulation(u, y)
+    with pytest.raises(ValueError, match="n_init=3"):
+        model.simulate(u[0], y[0, :2])
+
+
+def test_diverging_training_raises():
+    u, y = _records()
+    model = _model(lr=1e4, max_epochs=20, correction_scale=10.0, patience=20)
+    with pytest.raises(TrainingDivergedError):
+        model.fit_simulation(u, y)
+
+
+def test_interrupt_leaves_previous_model(monkeypatch):
+    u, y = _records()
+    model = _model().fit_simulation(u, y)
+    before = model.simulate(u, y[:, :3])
+    state = dict(model.__dict__)
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(StateSpaceHybridRegressor, "_train", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        model.set_params(horizon=4).fit_simulation(u, y)
+    with pytest.raises(KeyboardInterrupt):
+        X, target = make_windows(list(y), list(u), n_steps=1)
+        model.fit(X, target[:, 0])
+    assert model.__dict__.keys() == state.keys()
+    np.testing.assert_array_equal(model.simulate(u, y[:, :3]), before)
+
+
+@pytest.mark.slow
+def test_dc_motor_state_space_hybrid_is_best_of_four():
+    """The benchmark's claim with a smaller budget (a few minutes on 2 cores).
+
+    The hybrid starts from the physics and early stopping keeps the starting
+    model as a candidate, so it is not worse than the physics alone by more than
+    the validation tail's noise; the windowed models drift in free run.
+    """
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    from bench_state_space_hybrid import run
+
+    results = run(
+        n_train=4, n_test=2, length=600, horizons=(20,), max_epochs=10, verbose=False
+    )
+    hybrid = next(v for k, v in results.items() if k.startswith("state-space"))
+    others = [v for k, v in results.items() if not k.startswith("state-space")]
+    # With this budget the hybrid does not beat its physics (see the guide):
+    # the claim checked is that it stays close to it and far below the windowed
+    # models, whose absolute-angle inputs drift out of range in free run.
+    assert hybrid <= 1.5 * results["physics"]
+    assert hybrid < min(v for k, v in results.items() if k.startswith(("wind", "net")))
+    assert all(np.isfinite(others))

@@ -30,8 +30,13 @@ from skhybrid.utils._transaction import TransactionalFitMixin
 
 def _two_states(est):
     # A state-space model declares its states: as many as _data's (two).
-    if "state_names" in est.get_params(deep=False):
-        est.set_params(state_names=["x0", "x1"], observed=["x0", "x1"])
+    est = clone(est)  # nested parameters are shared with fast_instances()
+    names = ["x0", "x1"]
+    for prefix in ("", "physics__"):
+        if f"{prefix}state_names" in est.get_params():
+            est.set_params(
+                **{f"{prefix}state_names": names, f"{prefix}observed": names}
+            )
     return est
 
 

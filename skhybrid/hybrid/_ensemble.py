@@ -743,6 +743,24 @@ class _BoundTransform:
         self.a_free = np.where(np.abs(theta0) > 0, np.abs(theta0), 1.0)
         self.z0 = np.where(self.both, np.log(frac / (1 - frac)), 0.0)
 
+    def to_theta(self, z, torch):
+        """Parameters from ``z`` in torch (the mapping :class:`HybridModule` uses)."""
+        f = lambda a: torch.as_tensor(a, dtype=z.dtype, device=z.device)  # noqa: E731
+        both = f(self.lower) + (f(self.upper) - f(self.lower)) * torch.sigmoid(z)
+        soft = torch.nn.functional.softplus(z) * f(self.a_side)
+        lo = f(self.lower) + soft
+        hi = f(self.upper) - soft
+        free = f(self.theta0) + f(self.a_free) * z
+        return torch.where(
+            f(self.both).bool(),
+            both,
+            torch.where(
+                f(self.lo_only).bool(),
+                lo,
+                torch.where(f(self.hi_only).bool(), hi, free),
+            ),
+        )
+
 
 def _std_dict(domain, std, free):
     """Standard errors by name: 0 for fixed parameters."""

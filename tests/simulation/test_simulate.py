@@ -32,10 +32,14 @@ def _sequences(n_traj=3, n_times=60, seed=0):
 def _simulators():
     for est in fast_instances():
         if isinstance(est, SimulatorMixin) and not isinstance(est, PendulumModel):
-            if "state_names" in est.get_params(deep=False):
-                # A state-space model declares its states: as many as the data's.
-                names = [f"x{i}" for i in range(N_STATES)]
-                est.set_params(state_names=names, observed=names)
+            # A state-space model declares its states: as many as the data's.
+            est = clone(est)  # nested parameters are shared with fast_instances()
+            names = [f"x{i}" for i in range(N_STATES)]
+            for prefix in ("", "physics__"):
+                if f"{prefix}state_names" in est.get_params():
+                    est.set_params(
+                        **{f"{prefix}state_names": names, f"{prefix}observed": names}
+                    )
             yield pytest.param(est, id=type(est).__name__)
 
 

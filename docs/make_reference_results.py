@@ -60,6 +60,33 @@ def main(paths):
                 ratio = sum(r["rmse_over_oracle"] for r in sel) / len(sel)
                 cells.append(f"{db:.1f} dB / {ratio:.2f}")
             print(f"| {model} | " + " | ".join(cells) + " |")
+        noise = entries[0][1].get("noise")
+        if noise is not None:
+            split = "interpolation"
+            print(
+                f"\nWhiteness on the {split} set ({entries[0][1]['noise_type']} "
+                "noise): residual std / injected noise and Ljung-Box Q at "
+                f"{entries[0][1]['settings']['lags']} lags, mean over seeds\n"
+            )
+            print("| model | " + " | ".join(outputs) + " |")
+            print("| --- |" + " --- |" * len(outputs))
+            for model in models:
+                cells = []
+                for j, out in enumerate(outputs):
+                    sel = [
+                        r
+                        for r in rows
+                        if r["model"] == model
+                        and r["split"] == split
+                        and r["output"] == out
+                    ]
+                    q = sum(r["ljung_box_stat"] for r in sel) / len(sel)
+                    if noise[j] > 0:
+                        ratio = sum(r["residual_std"] for r in sel) / len(sel)
+                        cells.append(f"{ratio / noise[j]:.3f} / {q:.0f}")
+                    else:
+                        cells.append(f"- / {q:.0f}")
+                print(f"| {model} | " + " | ".join(cells) + " |")
         params = defaultdict(list)
         for _, system in entries:
             for model, ps in system["params"].items():

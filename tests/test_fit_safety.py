@@ -24,24 +24,11 @@ from skhybrid.hybrid import (
 )
 from skhybrid.neural import DenseRegressor, RNNRegressor
 from skhybrid.preprocessing import make_windows
-from skhybrid.utils._testing import fast_instances
+from skhybrid.utils._testing import fast_instances, with_states
 from skhybrid.utils._transaction import TransactionalFitMixin
 
-
-def _two_states(est):
-    # A state-space model declares its states: as many as _data's (two).
-    est = clone(est)  # nested parameters are shared with fast_instances()
-    names = ["x0", "x1"]
-    for prefix in ("", "physics__"):
-        if f"{prefix}state_names" in est.get_params():
-            est.set_params(
-                **{f"{prefix}state_names": names, f"{prefix}observed": names}
-            )
-    return est
-
-
 ESTIMATORS = [
-    pytest.param(_two_states(e), id=type(e).__name__) for e in fast_instances()
+    pytest.param(with_states(e, 2), id=type(e).__name__) for e in fast_instances()
 ]
 
 

@@ -20,6 +20,7 @@ __all__ = [
     "FAST_PARAMS",
     "expected_failed_checks",
     "fast_instances",
+    "with_states",
 ]
 
 
@@ -169,6 +170,27 @@ def fast_instances():
     """Yield one fast instance of every public estimator of skhybrid."""
     for name, cls in all_estimators():
         yield cls(**FAST_PARAMS.get(name, {}))
+
+
+def with_states(estimator, n_states):
+    """A clone of ``estimator`` whose state-space physics has ``n_states`` states.
+
+    State-space models declare their states (``state_names``, ``observed``); the
+    fast instances declare one. Tests that fit every estimator on data with more
+    states give those models as many, all observed. Other estimators are cloned
+    unchanged. The clone matters: nested parameters are shared between the fast
+    instances.
+    """
+    from sklearn.base import clone
+
+    estimator = clone(estimator)
+    names = [f"x{i}" for i in range(n_states)]
+    for prefix in ("", "physics__"):
+        if f"{prefix}state_names" in estimator.get_params():
+            estimator.set_params(
+                **{f"{prefix}state_names": names, f"{prefix}observed": names}
+            )
+    return estimator
 
 
 def expected_failed_checks(estimator):

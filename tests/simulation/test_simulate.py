@@ -11,7 +11,7 @@ from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin, simulate
-from skhybrid.utils._testing import fast_instances
+from skhybrid.utils._testing import fast_instances, with_states
 
 N_STATES, N_INPUTS = 2, 1
 
@@ -32,14 +32,7 @@ def _sequences(n_traj=3, n_times=60, seed=0):
 def _simulators():
     for est in fast_instances():
         if isinstance(est, SimulatorMixin) and not isinstance(est, PendulumModel):
-            # A state-space model declares its states: as many as the data's.
-            est = clone(est)  # nested parameters are shared with fast_instances()
-            names = [f"x{i}" for i in range(N_STATES)]
-            for prefix in ("", "physics__"):
-                if f"{prefix}state_names" in est.get_params():
-                    est.set_params(
-                        **{f"{prefix}state_names": names, f"{prefix}observed": names}
-                    )
+            est = with_states(est, N_STATES)
             yield pytest.param(est, id=type(est).__name__)
 
 

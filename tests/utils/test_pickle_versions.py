@@ -6,13 +6,12 @@ import warnings
 import numpy as np
 import pytest
 import sklearn.exceptions
-from sklearn.base import clone
 
 from skhybrid.exceptions import InconsistentVersionWarning
 from skhybrid.hybrid import AutoRegressiveNoise, GaussianNoise
 from skhybrid.utils import all_estimators
 from skhybrid.utils._pickle import VersionedPickleMixin, package_versions
-from skhybrid.utils._testing import fast_instances
+from skhybrid.utils._testing import fast_instances, with_states
 
 
 def test_every_estimator_records_versions():
@@ -31,7 +30,7 @@ def _fitted(rng):
     y = np.column_stack([X[:, 0] + 0.1 * X[:, 3], np.sin(X[:, 1]), X[:, 2]])
     residuals = rng.standard_normal((200, 2))
     for estimator in fast_instances():
-        yield type(estimator).__name__, clone(estimator).fit(X, y)
+        yield type(estimator).__name__, with_states(estimator, 3).fit(X, y)
     yield "GaussianNoise", GaussianNoise().fit(residuals)
     yield "AutoRegressiveNoise", AutoRegressiveNoise(max_lag=2).fit(residuals)
 

@@ -5,7 +5,7 @@ from numbers import Integral
 import numpy as np
 
 from skhybrid.domain._base import DomainModel
-from skhybrid.preprocessing import step_width
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["LinearStateSpaceModel"]
@@ -225,21 +225,24 @@ class LinearStateSpaceModel(DomainModel):
                 f"{self.objective!r}."
             )
 
-    def _lagged_steps(self, X, n_lags):
-        """The newest ``n_lags`` steps of each row, newest first."""
-        width = step_width(X.shape[1], self.n_steps)
-        stop = X.shape[1]
-        return [X[:, stop - (i + 1) * width : stop - i * width] for i in range(n_lags)]
+    def _layout(self, X, n_outputs):
+        """The rows' :class:`~skhybrid.preprocessing.WindowLayout`: outputs, inputs."""
+        return WindowLayout.from_shapes(X.shape[1], n_outputs, n_steps=self.n_steps)
+
+    def _lagged_steps(self, X, n_lags, n_outputs):
+        """``(outputs, inputs)`` of each row's newest ``n_lags`` steps, newest first."""
+        outputs, inputs = self._layout(X, n_outputs).split(X)
+        return [(outputs[:, -1 - i], inputs[:, -1 - i]) for i in range(n_lags)]
 
     def _closed_form(self, X, y):
         s = y.shape[1]
         n_lags = self._n_lags(s)
-        steps = self._lagged_steps(X, n_lags)
-        design = np.hstack(steps)
+        steps = self._lagged_steps(X, n_lags, s)
+        design = np.hstack([np.hstack(step) for step in steps])
         if self.fit_intercept:
             design = np.hstack([design, np.ones((X.shape[0], 1))])
         coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-        w = steps[0].shape[1]
+        w = sum(part.shape[1] for part in steps[0])
         A = np.vstack([coef[i * w : i * w + s].T for i in range(n_lags)])
         B = np.vstack([coef[i * w + s : (i + 1) * w].T for i in range(n_lags)])
         c = coef[-1] if self.fit_intercept else np.zeros(s)
@@ -247,7 +250,7 @@ class LinearStateSpaceModel(DomainModel):
 
     def _initial_params(self, X, y):
         s = y.shape[1]
-        m = step_width(X.shape[1], self.n_steps) - s
+        m = self._layout(X, s).n_inputs
         n = s * self._n_lags(s)
         if self.fixed:
             zeros = {"A": np.zeros((n, s)), "B": np.zeros((n, m)), "c": np.zeros(s)}
@@ -262,11 +265,8 @@ class LinearStateSpaceModel(DomainModel):
         A, B = params["A"], params["B"]
         s = A.shape[1]
         out = None
-        for i, step in enumerate(self._lagged_steps(X, A.shape[0] // s)):
-            term = (
-                step[:, :s] @ A[i * s : (i + 1) * s].T
-                + step[:, s:] @ B[i * s : (i + 1) * s].T
-            )
+        for i, (y_i, u_i) in enumerate(self._lagged_steps(X, A.shape[0] // s, s)):
+            term = y_i @ A[i * s : (i + 1) * s].T + u_i @ B[i * s : (i + 1) * s].T
             out = term if out is None else out + term
         if "c" in params:
             out = out + params["c"]
@@ -282,10 +282,9 @@ class LinearStateSpaceModel(DomainModel):
         A, B = params["A"], params["B"]
         s = A.shape[1]
         n_lags = A.shape[0] // s
-        width = step_width(X.shape[1], self.n_steps)
-        steps = [X[:, j * width : (j + 1) * width] for j in range(self.n_steps)]
-        ys = [step[:, :s] for step in steps]
-        us = [step[:, s:] for step in steps]
+        outputs, inputs = self._layout(X, s).split(X)
+        ys = [outputs[:, j] for j in range(self.n_steps)]
+        us = [inputs[:, j] for j in range(self.n_steps)]
         sim = list(ys[:n_lags])
         for j in range(n_lags, self.n_steps + 1):
             out = None

@@ -19,7 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.domain._base import DomainModel, _ParameterSpec
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 from skhybrid.losses import objective_residuals
-from skhybrid.preprocessing import split_steps, step_width
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
 from skhybrid.utils._array_api import get_namespace, is_torch
 from skhybrid.utils._sklearn_compat import (
@@ -727,11 +727,15 @@ n_outputs) or list of 2-D arrays
         return n_inputs, n_outputs
 
     # -- windowed fit and predict --------------------------------------------------
+    def _layout(self, n_features):
+        """The windows' :class:`~skhybrid.preprocessing.WindowLayout`: outputs first."""
+        return WindowLayout.from_shapes(
+            n_features, self.n_outputs_, n_steps=self.n_steps
+        )
+
     def _equations(self, X, params, xp):
         structure = self._structure()
-        n_out = self.n_outputs_
-        steps = split_steps(X, self.n_steps)
-        Y, U = steps[:, :, :n_out], steps[:, :, n_out:]
+        Y, U = self._layout(X.shape[1]).split(X)
         if self._needs_estimation(structure[1]) and not is_torch(xp):
             x0 = self._estimate_x0(np.asarray(Y), np.asarray(U), params, structure)
         else:
@@ -766,7 +770,7 @@ n_outputs) or list of 2-D arrays
             self, X, y, multi_output=multi, y_numeric=True, dtype=np.float64
         )
         super().fit(X, y)
-        self.n_inputs_ = step_width(X.shape[1], self.n_steps) - self.n_outputs_
+        self.n_inputs_ = self._layout(X.shape[1]).n_inputs
         self._warn_identifiability()
         return self
 

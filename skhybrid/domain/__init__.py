@@ -6,10 +6,11 @@ Every model declares named parameters with initial values, optional bounds and a
 """
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.domain._identifiability import check_identifiability
 from skhybrid.domain._linear import LinearStateSpaceModel
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step
-from skhybrid.domain._state_space import StateSpaceModel, check_identifiability
+from skhybrid.domain._state_space import StateSpaceModel
 
 __all__ = [
     "DomainModel",

@@ -9,6 +9,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted
 
+from skhybrid.domain._identifiability import warn_if_unidentifiable
 from skhybrid.losses import OBJECTIVES, objective_residuals
 from skhybrid.preprocessing import step_width
 from skhybrid.simulation import SimulatorMixin
@@ -551,6 +552,9 @@ class DomainModel(
             cov = np.zeros((0, 0))
         else:
             J, r = self._raw_jacobian(X, y, spec, theta)
+            warn_if_unidentifiable(
+                self, J, spec, theta, getattr(self, "identifiability_tol", 1e-6)
+            )
             dof = r.size - spec.n_free
             if dof > 0:
                 cov = np.linalg.pinv(J.T @ J) * (float(r @ r) / dof)

@@ -1,0 +1,51 @@
+"""Every domain model warns when the data determine only a combination of parameters."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from skhybrid.domain import LinearStateSpaceModel, ParametricModel, PendulumModel
+from skhybrid.exceptions import IdentifiabilityWarning
+
+
+def _product(X, *, a, b, c, xp=np):
+    return a * b * X[:, :1] + c
+
+
+def _data(seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(200, 2))
+    return X, 3.0 * X[:, 0] + 0.5 + 0.01 * rng.normal(size=200)
+
+
+def test_parameters_identifiable_only_as_a_product_warn_naming_them():
+    X, y = _data()
+    with pytest.warns(IdentifiabilityWarning, match=r"only the combination a\*b"):
+        model = ParametricModel(_product, {"a": 1.0, "b": 1.0, "c": 0.0}).fit(X, y)
+    # The determined combination is still fitted.
+    assert model.params_["a"] * model.params_["b"] == pytest.approx(3.0, rel=0.01)
+    # Fixing one of them removes the warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        ParametricModel(_product, {"a": 1.0, "b": 1.0, "c": 0.0}, fixed=("b",)).fit(
+            X, y
+        )
+
+
+@pytest.mark.parametrize(
+    "model",
+    [LinearStateSpaceModel(), PendulumModel(mass=2.0, length=1.5)],
+    ids=["linear", "pendulum"],
+)
+def test_identifiable_models_do_not_warn(model):
+    from skhybrid.datasets import make_pendulum
+
+    if isinstance(model, PendulumModel):
+        data = make_pendulum(n_samples=500, random_state=0)
+        X, y = data.X, data.y
+    else:
+        X, y = _data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        model.fit(X, y)

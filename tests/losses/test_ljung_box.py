@@ -215,6 +215,26 @@ def test_matrix_product_path_gradcheck(monkeypatch, rng, n, lags, function):
     )
 
 
+@pytest.mark.parametrize(
+    "dtype, scales",
+    [(torch.float64, (1e-200, 1e150, 1e300)), (torch.float32, (1e-30, 1e20))],
+)
+def test_matrix_product_path_any_scale(monkeypatch, rng, dtype, scales):
+    """Outside the safe range the series is rescaled before the products."""
+    from skhybrid.losses import _ljung_box
+
+    monkeypatch.setattr(_ljung_box, "_MATMUL_MIN_SAMPLES", 1)
+    x = rng.standard_normal((300, 2))
+    q = ljung_box(x, lags=10)
+    for scale in scales:
+        t = torch.tensor(x * scale, dtype=dtype, requires_grad=True)
+        value = ljung_box(t, lags=10)
+        rtol = 1e-9 if dtype == torch.float64 else 1e-4
+        np.testing.assert_allclose(value.item(), q, rtol=rtol)
+        value.backward()
+        assert torch.isfinite(t.grad).all()
+
+
 def test_blocked_fft_path_gradcheck(rng):
     x = torch.tensor(rng.standard_normal(1100), requires_grad=True)
     assert torch.autograd.gradcheck(lambda t: ljung_box(t, lags=3), (x,))

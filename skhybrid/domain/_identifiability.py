@@ -101,7 +101,9 @@ relative units: +0.71 a, -0.71 b). Fix one of them or reparametrise.
             f"no parameter changes the fit: {', '.join(map(repr, names))} are not "
             "determined by the data."
         )
-    _, s, vt = np.linalg.svd(J, full_matrices=True)
+    # The null direction is the last row of V^T; only a wide Jacobian needs the
+    # full V^T to hold it, and a tall one must not build its (huge) full U.
+    _, s, vt = np.linalg.svd(J, full_matrices=J.shape[0] < J.shape[1])
     s_min = float(s[-1]) if J.shape[0] >= J.shape[1] else 0.0
     ratio = s_min / s_max
     if ratio >= tol:

@@ -525,21 +525,7 @@ class DomainModel(
         base = raw(theta)
         if self.jac == "autograd":
             return self._autograd_jacobian(X, y, spec, objective_fn=False)(theta), base
-        # Steps on each parameter's own scale, not on 1 (which is huge for a
-        # parameter of order 1e-7); near zero, on a fraction of its start's.
-        size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
-        step = np.finfo(float).eps ** (1 / 3) * size
-        J = np.zeros((base.size, theta.size))
-        for j in range(theta.size):
-            # Central differences, stepping only inside the bounds.
-            up, down = theta.copy(), theta.copy()
-            hi = min(step[j], spec.upper[j] - theta[j])
-            lo = min(step[j], theta[j] - spec.lower[j])
-            if hi + lo > 0:
-                up[j] += hi
-                down[j] -= lo
-                J[:, j] = (raw(up) - raw(down)) / (hi + lo)
-        return J, base
+        return _central_differences(raw, theta, spec, base.size), base
 
     def _standard_errors(self, X, y, spec, theta):
         """Standard errors from the Gauss-Newton covariance ``s^2 (J^T J)^-1``.
@@ -562,6 +548,26 @@ class DomainModel(
                 cov = np.full((spec.n_free, spec.n_free), np.inf)
         std_free = np.sqrt(np.clip(np.diag(cov), 0, None))
         return spec.to_dict(std_free, fixed_value=0.0), cov
+
+
+def _central_differences(raw, theta, spec, n_residuals):
+    """Jacobian of ``raw`` at ``theta`` by central differences inside the bounds.
+
+    Steps on each parameter's own scale, not on 1 (which is huge for a parameter
+    of order 1e-7); near zero, on a fraction of its start's.
+    """
+    size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+    step = np.finfo(float).eps ** (1 / 3) * size
+    J = np.zeros((n_residuals, theta.size))
+    for j in range(theta.size):
+        up, down = theta.copy(), theta.copy()
+        hi = min(step[j], spec.upper[j] - theta[j])
+        lo = min(step[j], theta[j] - spec.lower[j])
+        if hi + lo > 0:
+            up[j] += hi
+            down[j] -= lo
+            J[:, j] = (raw(up) - raw(down)) / (hi + lo)
+    return J
 
 
 class _ParameterSpec:

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.domain._base import DomainModel, _ParameterSpec
+from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
@@ -926,17 +926,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 return np.reshape(self._record_residuals(t, spec), -1)
 
             base = raw(theta)
-            size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
-            step = np.finfo(float).eps ** (1 / 3) * size
-            J = np.zeros((base.size, theta.size))
-            for j in range(theta.size):
-                up, down = theta.copy(), theta.copy()
-                hi = min(step[j], spec.upper[j] - theta[j])
-                lo = min(step[j], theta[j] - spec.lower[j])
-                if hi + lo > 0:
-                    up[j] += hi
-                    down[j] -= lo
-                    J[:, j] = (raw(up) - raw(down)) / (hi + lo)
+            J = _central_differences(raw, theta, spec, base.size)
         return J, base
 
     # -- simulation ----------------------------------------------------------------

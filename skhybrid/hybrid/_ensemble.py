@@ -17,6 +17,7 @@ from skhybrid.losses import OBJECTIVES, needs_time_order
 from skhybrid.neural._base import (
     _Net,
     check_device,
+    check_time_ordered_rows,
     record_training,
     rng_devices,
     training_callbacks,
@@ -318,25 +319,6 @@ class HybridEnsembleRegressor(
         )
         return dom
 
-    def _check_rows(self, n_samples):
-        """Ljung-Box objectives need blocks longer than their lags."""
-        if not needs_time_order(self.objective):
-            return 2
-        min_rows = self.ljung_box_lags + 1
-        if self.batch_size is not None and self.batch_size <= self.ljung_box_lags:
-            raise ValueError(
-                f"batch_size={self.batch_size} must be larger than "
-                f"ljung_box_lags={self.ljung_box_lags}: objective="
-                f"{self.objective!r} computes autocorrelations within each "
-                "block of batch_size rows."
-            )
-        if n_samples < min_rows:
-            raise ValueError(
-                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
-                f"number of samples, n_samples={n_samples}."
-            )
-        return min_rows
-
     # -- fit -----------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y):
@@ -378,7 +360,7 @@ class HybridEnsembleRegressor(
         Y = y[:, None] if self._y_1d else y
         self.n_outputs_ = Y.shape[1]
         time_ordered = needs_time_order(self.objective)
-        min_rows = self._check_rows(n)
+        min_rows = check_time_ordered_rows(self, n)
         if self.horizon > 1 and self.objective != "mse":
             raise ValueError(
                 f"horizon={self.horizon} trains on simulated sub-sequences with "

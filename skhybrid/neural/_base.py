@@ -269,6 +269,43 @@ def record_training(est, net):
         )
 
 
+def check_time_ordered_rows(est, n_samples):
+    """Fewest training rows ``est``'s objective needs; checks its batches too.
+
+    A Ljung-Box objective computes autocovariances within each block of
+    ``batch_size`` rows (``None``: all rows), so a block and the data must be
+    longer than ``ljung_box_lags``. Other objectives need two rows.
+
+    Parameters
+    ----------
+    est : estimator
+        Has ``objective``, ``ljung_box_lags`` and ``batch_size``.
+    n_samples : int
+        Training rows.
+
+    Returns
+    -------
+    min_rows : int
+        ``ljung_box_lags + 1`` for a Ljung-Box objective, else 2.
+    """
+    if not needs_time_order(est.objective):
+        return 2
+    min_rows = est.ljung_box_lags + 1
+    if est.batch_size is not None and est.batch_size <= est.ljung_box_lags:
+        raise ValueError(
+            f"batch_size={est.batch_size} must be larger than "
+            f"ljung_box_lags={est.ljung_box_lags}: objective="
+            f"{est.objective!r} computes autocorrelations within each "
+            "block of batch_size rows."
+        )
+    if n_samples < min_rows:
+        raise ValueError(
+            f"ljung_box_lags={est.ljung_box_lags} must be smaller than the "
+            f"number of samples, n_samples={n_samples}."
+        )
+    return min_rows
+
+
 def check_device(device):
     """Raise a ValueError for ``device='cuda'`` without a CUDA device.
 
@@ -624,20 +661,7 @@ class BaseNeuralRegressor(
         n_outputs = y2.shape[1]
         self._check_architecture(n_features, n_outputs)
         time_ordered = needs_time_order(self.objective)
-        min_rows = self.ljung_box_lags + 1 if time_ordered else 2
-        if time_ordered:
-            if self.batch_size <= self.ljung_box_lags:
-                raise ValueError(
-                    f"batch_size={self.batch_size} must be larger than "
-                    f"ljung_box_lags={self.ljung_box_lags}: objective="
-                    f"{self.objective!r} computes autocorrelations within each "
-                    "block of batch_size rows."
-                )
-            if n_samples < min_rows:
-                raise ValueError(
-                    f"ljung_box_lags={self.ljung_box_lags} must be smaller than "
-                    f"the number of samples, n_samples={n_samples}."
-                )
+        min_rows = check_time_ordered_rows(self, n_samples)
 
         self._increment_layout = None
         y_train = y2

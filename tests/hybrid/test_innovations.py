@@ -6,6 +6,9 @@ smaller budget: with the residual inputs the stage's held-out residual is white 
 the innovation level, and the physics alone is far from it.
 """
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -15,27 +18,15 @@ from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
 from skhybrid.preprocessing import make_windows
 
-INNOVATION_STD = 0.05
-
-
-def _episodes(n_episodes, length, rng):
-    states, inputs = [], []
-    for _ in range(n_episodes):
-        u = np.repeat(rng.uniform(-1, 1, length // 5 + 1), 5)[:length]
-        x, w = np.zeros(length), 0.0
-        for t in range(length - 1):
-            w = 0.8 * w + INNOVATION_STD * rng.standard_normal()
-            x[t + 1] = 0.8 * x[t] + 0.5 * u[t] + 0.3 * np.sin(2 * x[t]) + w
-        states.append(x[:, None])
-        inputs.append(u[:, None])
-    return states, inputs
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from bench_innovations import INNOVATION_STD, simulate
 
 
 @pytest.mark.slow
 def test_residual_inputs_reach_white_innovations():
     rng = np.random.default_rng(0)
-    X, y = make_windows(*_episodes(6, 1000, rng), n_steps=3)
-    X_test, y_test = make_windows(*_episodes(3, 1000, rng), n_steps=3)
+    X, y = make_windows(*simulate(6, 1000, rng), n_steps=3)
+    X_test, y_test = make_windows(*simulate(3, 1000, rng), n_steps=3)
     model = HybridBoostingRegressor(
         [
             ("physics", LinearStateSpaceModel(n_steps=3)),

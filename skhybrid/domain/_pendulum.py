@@ -5,6 +5,7 @@ from numbers import Real
 import numpy as np
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.preprocessing import WindowLayout
 from skhybrid.utils._sklearn_compat import Interval
 
 __all__ = ["PendulumModel", "pendulum_step"]
@@ -207,12 +208,12 @@ class PendulumModel(DomainModel):
             )
 
     def _equations(self, X, params, xp):
-        step = X[:, X.shape[1] - 4 :]
+        states, inputs = WindowLayout(3, 1, self.n_steps).split(X)
         cos_t, sin_t, theta_dot = pendulum_step(
-            step[:, 0],
-            step[:, 1],
-            step[:, 2],
-            step[:, 3],
+            states[:, -1, 0],
+            states[:, -1, 1],
+            states[:, -1, 2],
+            inputs[:, -1, 0],
             mass=params["mass"],
             length=params["length"],
             g=self.g,

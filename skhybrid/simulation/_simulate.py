@@ -6,8 +6,11 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.preprocessing import WindowLayout
+from skhybrid.simulation._initial import fit_initial_windows
 
 __all__ = ["SimulatorMixin", "simulate"]
+
+INITS = ("measured", "least_squares")
 
 #: Sample paths drawn for ``return_std=True`` when ``n_samples`` is not given.
 DEFAULT_STD_SAMPLES = 100
@@ -94,12 +97,13 @@ def _noise_draws(noise, n_paths, n_traj, n_times, n_states, random_state):
     return out
 
 
-def _rollout(predict, layout, U, Y, n_init, lengths, noise=None):
-    """Fill ``Y[:, t]`` for ``t >= n_init`` by one batched prediction per step.
+def _rollout(predict, layout, U, Y, n_init, lengths, noise=None, check=True):
+    """Fill ``Y[:, t]``, ``n_init <= t < lengths``, by one batched prediction per step.
 
     ``U`` is ``(n, N, m)``, ``Y`` is ``(n, N, s)`` holding the measured initial
     windows; ``noise`` (the same shape as ``Y`` or None) is added to each
-    simulated state before it is fed back.
+    simulated state before it is fed back. With ``check=False`` non-finite states
+    are left in place instead of raising.
     """
     k = layout.n_steps
     start = int(n_init.min())
@@ -113,7 +117,7 @@ def _rollout(predict, layout, U, Y, n_init, lengths, noise=None):
         pred = np.asarray(predict(X), dtype=np.float64).reshape(active.size, -1)
         if noise is not None:
             pred = pred + noise[active, t]
-        if not np.all(np.isfinite(pred)):
+        if check and not np.all(np.isfinite(pred)):
             bad = active[~np.all(np.isfinite(pred), axis=1)][0]
             raise SimulationDivergedError(
                 f"the simulation diverged at time step {t}: trajectory {bad} reached "
@@ -121,6 +125,13 @@ def _rollout(predict, layout, U, Y, n_init, lengths, noise=None):
                 "initial window (check the inputs' range against the training data)."
             )
         Y[active, t] = pred
+    return Y
+
+
+def _measured_window(Y, Y0_list):
+    """``Y`` with each trajectory's measured initial window put back (last axes)."""
+    for i, y0 in enumerate(Y0_list):
+        Y[..., i, : len(y0), :] = y0
     return Y
 
 
@@ -142,6 +153,7 @@ def simulate(
     random_state=None,
     return_std=False,
     noise_model=None,
+    init="measured",
 ):
     """Simulate a fitted next-state predictor in free run.
 
@@ -174,6 +186,17 @@ n_states) or list of (n_init_i, n_states) arrays
     noise_model : fitted noise model or None, default=None
         Supplies ``sample(n, random_state)``; needed for ``n_samples`` and
         ``return_std``.
+    init : {"measured", "least_squares"}, default="measured"
+        How the simulation starts. ``"measured"``: from the newest ``n_steps``
+        measured steps of ``initial`` as they are. ``"least_squares"``: the
+        states of the first window are fitted so that the model's own free run
+        through all ``n_init`` measured steps matches them in least squares
+        (the initial-state estimate of prediction-error methods), and the
+        simulation continues from that fitted run; with ``n_init`` well above
+        ``n_steps`` this averages the measurement noise out of the starting
+        state. Fitted separately for each trajectory (Levenberg-Marquardt,
+        central differences, all trajectories advanced in one batch); a
+        ``ConvergenceWarning`` names those that did not converge.
 
     Returns
     -------
@@ -184,6 +207,8 @@ n_states) or list of (n_init_i, n_states) arrays
         list). With ``return_std=True`` the tuple ``(mean, std)``.
     """
     check_is_fitted(estimator)
+    if not isinstance(init, str) or init not in INITS:
+        raise ValueError(f"init must be one of {INITS}; got init={init!r}.")
     U_list, form = _as_list(inputs, "inputs")
     Y0_list, init_form = _as_list(initial, "initial")
     if init_form != form or len(Y0_list) != len(U_list):
@@ -228,10 +253,25 @@ n_states) or list of (n_init_i, n_states) arrays
     for i in range(n_traj):
         U[i, : lengths[i]] = U_list[i]
         Y[i, : n_init[i]] = Y0_list[i]
+    if init == "least_squares":
+        first = np.full(n_traj, layout.n_steps)
+
+        def window_run(Y_run):
+            return _rollout(
+                estimator.predict, layout, U, Y_run, first, n_init, check=False
+            )
+
+        # Central differences need a step near the cube root of the precision
+        # the model computes in (float32 networks, float64 physics).
+        k = layout.n_steps
+        probe = np.asarray(estimator.predict(layout.join(Y[:1, :k], U[:1, :k])))
+        dtype = probe.dtype if np.issubdtype(probe.dtype, np.floating) else float
+        rel_step = float(np.finfo(dtype).eps) ** (1 / 3)
+        Y = fit_initial_windows(window_run, Y, n_init, k, rel_step=rel_step)
 
     if not stochastic:
         Y = _rollout(estimator.predict, layout, U, Y, n_init, lengths)
-        return _pack(Y, lengths, form)
+        return _pack(_measured_window(Y, Y0_list), lengths, form)
 
     n_paths = n_samples or DEFAULT_STD_SAMPLES
     noise = _noise_draws(noise_model, n_paths, n_traj, n_max, n_states, random_state)
@@ -245,6 +285,7 @@ n_states) or list of (n_init_i, n_states) arrays
         np.tile(lengths, n_paths),
         noise=noise.reshape(n_paths * n_traj, n_max, n_states),
     ).reshape(n_paths, n_traj, n_max, n_states)
+    Yp = _measured_window(Yp, Y0_list)
     if return_std:
         return (
             _pack(Yp.mean(axis=0), lengths, form),
@@ -257,7 +298,14 @@ class SimulatorMixin:
     """Adds :meth:`simulate` to an estimator that predicts the next state."""
 
     def simulate(
-        self, inputs, initial, *, n_samples=None, random_state=None, return_std=False
+        self,
+        inputs,
+        initial,
+        *,
+        n_samples=None,
+        random_state=None,
+        return_std=False,
+        init="measured",
     ):
         """Simulate the fitted model in free run from measured initial windows.
 
@@ -279,6 +327,10 @@ n_init, n_states) or list of 2-D arrays
             Seed of the noise draws.
         return_std : bool, default=False
             Return the mean and standard deviation over sample paths.
+        init : {"measured", "least_squares"}, default="measured"
+            Start from the measured window as it is, or from the first window
+            fitted by least squares to the whole measured initial record (see
+            :func:`skhybrid.simulation.simulate`).
 
         Returns
         -------
@@ -294,4 +346,5 @@ n_init, n_states) or list of 2-D arrays
             random_state=random_state,
             return_std=return_std,
             noise_model=getattr(self, "noise_model_", None),
+            init=init,
         )

@@ -1,5 +1,7 @@
 """simulate: one step equals predict, batches equal separate calls, the pendulum."""
 
+import inspect
+
 import numpy as np
 import pytest
 from sklearn.base import clone
@@ -77,6 +79,24 @@ def test_batch_equals_separate_calls(fitted, est):
     as_list = est.simulate([U_seq[0][:10], U_seq[1]], [init[0], init[1]])
     np.testing.assert_allclose(as_list[0], batch[0, :10], rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(as_list[1], batch[1], rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("est", _simulators())
+def test_least_squares_init_for_every_estimator(fitted, est):
+    est, n_steps = fitted[type(est).__name__]
+    if "init" not in inspect.signature(est.simulate).parameters:
+        pytest.skip(
+            f"{type(est).__name__} always estimates its (latent) initial state"
+        )
+    X_seq, U_seq = _sequences(n_traj=3, n_times=30, seed=4)
+    init = X_seq[:, : n_steps + 6]
+    batch = est.simulate(U_seq, init, init="least_squares")
+    assert np.all(np.isfinite(batch))
+    np.testing.assert_array_equal(batch[:, : n_steps + 6], init)
+    separate = np.stack(
+        [est.simulate(U_seq[i], init[i], init="least_squares") for i in range(3)]
+    )
+    np.testing.assert_allclose(batch, separate, rtol=1e-10, atol=1e-10)
 
 
 def test_true_pendulum_physics_reproduces_the_clean_trajectory():

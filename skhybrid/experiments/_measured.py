@@ -182,8 +182,8 @@ class Silverbox(MeasuredSystem):
             quick_one = _hybrid(50, (16, 16), quick=True, stride=50, **common)
             return {"T=50, (16, 16)": quick_one}
         return {
-            f"T={T}, {h}": _hybrid(T, h, quick=False, stride=25, **common)
-            for T, h in ((50, (32, 32)), (200, (32, 32)))
+            f"T={T}, {h}": _hybrid(T, h, quick=False, stride=stride, **common)
+            for T, h, stride in ((50, (32, 32), 50), (200, (32, 32), 100))
         }
 
 

@@ -74,8 +74,9 @@ class MeasuredSystem:
     unit = ""
     #: Factor from the data's units to the official reporting units.
     scale = 1.0
-    #: Samples per segment of the physics' simulation-error fit (None: whole).
-    segment = None
+    #: Candidate samples per segment of the physics' simulation-error fit
+    #: (multiple shooting; None: one free run), chosen on the validation tail.
+    segments = (None,)
     #: Maps record inputs to the physics' inputs (None: the same).
     physics_inputs = None
     #: Records the state-space hybrid's training part is cut into.
@@ -135,6 +136,8 @@ class EMPS(MeasuredSystem):
         s = d.splits
         return (s["train"].u, s["train"].y), {"test": (s["test"].u, s["test"].y)}, d
 
+    segments = (2000, 4000, 8000)
+
     def physics(self, u, y, dt, quick=False):
         # The reference model of the description: symmetric friction and an offset.
         return emps_physics(dt, max_nfev=20 if quick else 60)
@@ -161,7 +164,7 @@ class Silverbox(MeasuredSystem):
     title = "Silverbox electronic Duffing oscillator (measured)"
     unit = "mV"
     scale = 1e3
-    segment = 512
+    segments = (512,)
     physics_inputs = staticmethod(with_next_input)
     hybrid_records = 6
 

@@ -143,7 +143,7 @@ def _select_narx(make, u, y, n_init, candidates, notes, label):
     return make(best).fit(u, y), scores[best]
 
 
-def _fit_physics(system, u, y, dt, quick, start=None):
+def _fit_physics(system, u, y, dt, quick, segment, start=None):
     """The system's physics fitted on ``u``, ``y`` (from ``start``'s params)."""
     model = system.physics(u, y, dt, quick=quick)
     if start is not None:
@@ -152,7 +152,7 @@ def _fit_physics(system, u, y, dt, quick, start=None):
     u_model = u if transform is None else transform(u)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit_segments(model, u_model, y, system.segment)
+        fit_segments(model, u_model, y, segment)
     return TransformedInputs(model, transform)
 
 
@@ -212,15 +212,23 @@ def fit_zoo(system, train, n_init, dt, *, quick, seed, log):
     (u_a, y_a), (u_b, y_b) = _tail_split(u, y)
     models, notes, fit_time, validation = {}, {}, {}, {}
 
-    # Physics: fitted on the first 75 % (scored on the tail), then on the whole
-    # record from there.
+    # Physics: fitted on the first 75 % with each candidate segment length
+    # (multiple shooting; None is one free run per record), scored on the tail;
+    # the best is refitted on the whole record from there.
     start = time.perf_counter()
-    physics_a = _fit_physics(system, u_a, y_a, dt, quick)
-    validation["physics"] = _score(physics_a, u_b, y_b, n_init)
-    physics = _fit_physics(system, u, y, dt, quick, start=physics_a)
+    fits, scores = {}, {}
+    for segment in system.segments:
+        fits[segment] = _fit_physics(system, u_a, y_a, dt, quick, segment)
+        scores[segment] = _score(fits[segment], u_b, y_b, n_init)
+    segment = min(scores, key=scores.get)
+    physics_a = fits[segment]
+    validation["physics"] = scores[segment]
+    physics = _fit_physics(system, u, y, dt, quick, segment, start=physics_a)
     models["physics"] = physics
     fit_time["physics"] = time.perf_counter() - start
     notes["physics"] = {
+        "validation_rmse_by_segment": {str(k): v for k, v in scores.items()},
+        "segment": segment,
         "validation_rmse": validation["physics"],
         "estimation_rmse": physics.rmse_,
     }

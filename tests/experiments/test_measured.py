@@ -219,3 +219,19 @@ def test_cascaded_tanks_quick_run(shared_data_dir, tmp_path):
         str(out),
     ]
     assert main(again) == 2
+
+
+@pytest.mark.slow
+def test_silverbox_quick_run(shared_data_dir, tmp_path):
+    """The Duffing physics beats the published linear model; hybrids are chosen
+    on the validation tail only."""
+    out = tmp_path / "silverbox"
+    results = run_measured(
+        "silverbox", shared_data_dir, out, quick=True, log=lambda line: None
+    )
+    rmse = results["test_rmse"]
+    assert rmse["test_multisine"]["physics"] < 6.96
+    assert "state-space hybrid" in results["selection"]
+    validation = results["validation_rmse"]
+    assert results["selected_model"] == min(validation, key=validation.get)
+    assert results["selection"]["physics"]["segment"] == 512

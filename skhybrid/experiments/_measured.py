@@ -306,11 +306,19 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
         top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
+        spread = []
         for label, pred in sims[split].items():
             top.plot(t, system.scale * pred, lw=0.8, label=label)
             err = system.scale * (pred - np.ravel(y))
             err[:n_init] = np.nan
             bottom.plot(t, err, lw=0.6, label=label)
+            if label.startswith(("physics", "state-space")):
+                spread.append(np.nanmax(np.abs(err)))
+        if spread:
+            # The black-box models' errors can be 100 times larger: the axis
+            # shows the physics-based ones, the others are clipped.
+            lim = 1.1 * max(spread)
+            bottom.set_ylim(-lim, lim)
         for ax in (top, bottom):
             ax.axvspan(0, n_init * dt, color="0.9")
             if split in hull and hull[split]["first_outside"] is not None:
@@ -318,7 +326,7 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         top.set_title(f"{system.title}: {split}")
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
-        bottom.set_ylabel(f"simulation error [{unit}]")
+        bottom.set_ylabel(f"simulation error [{unit}]\n(axis: physics-based models)")
         bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
         top.legend(fontsize=7)
     fig.tight_layout()

@@ -4,9 +4,10 @@ Each system loads its benchmark files from a folder the user names (``--data``),
 uses the official split and initialisation window of the ``nonlinear-benchmarks``
 loader (v1.0.1), fits every model on the estimation record only, simulates it in
 free run on each test record from the first ``n_init`` measured outputs, and scores
-``RMSE(y[n_init:], y_model[n_init:])`` in the official units. Model choices (window
-lengths) are made on a validation tail of the estimation record (its last 25 %),
-never on a test record.
+``RMSE(y[n_init:], y_model[n_init:])`` in the official units. Every choice (window
+and segment lengths, the state-space hybrid's horizon, the model quoted) is made
+on a validation tail of the estimation record (its last 25 %), never on a test
+record; the zoo itself is in :mod:`skhybrid.experiments._measured_zoo`.
 """
 
 import json
@@ -357,8 +358,10 @@ def _html(results, figure, path):
 <h1>{results["title"]}</h1>
 <p>Free-run simulation RMSE on the official test record(s) [{unit}], the first
 {results["n_init"]} measured samples initialise the state (official protocol).
-Every model was fitted on the estimation record only; window lengths were chosen on
-its last 25 %. quick = {results["quick"]}, seed = {results["seed"]},
+Every model was fitted on the estimation record only; every choice (window and
+segment lengths, the hybrid's horizon T, the model quoted) was made on its last
+25 %, with the candidates fitted on the first 75 %.
+quick = {results["quick"]}, seed = {results["seed"]},
 {results["wall_time_s"]:.0f} s.</p>
 <table border="1" cellpadding="3"><tr><th>test</th><th>model</th>
 <th>RMSE [{unit}]</th><th>source</th></tr>

@@ -272,8 +272,9 @@ def fit_segments(model, u, y, segment):
     """Fit ``model`` by the simulation error over consecutive segments of a record.
 
     Multiple shooting: each segment of ``segment`` samples is a record whose
-    initial state is estimated from its own first ``model.n_init`` samples; a
-    tail shorter than ``segment`` joins the last segment.
+    initial state is estimated from its own first ``model.n_init`` samples; the
+    remainder of the record (fewer than ``segment`` samples) joins the last
+    segment.
 
     Parameters
     ----------
@@ -321,11 +322,9 @@ class TransformedInputs:
 
     def inputs(self, u):
         """The model's inputs for the record inputs ``u``."""
-        return (
-            np.asarray(u, dtype=float)
-            if self.transform is None
-            else (self.transform(u))
-        )
+        if self.transform is None:
+            return np.asarray(u, dtype=float)
+        return self.transform(u)
 
     def simulate(self, inputs, initial):
         """Free run of the model from the measured window ``initial``."""

@@ -307,19 +307,20 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
         top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
-        spread = []
-        for label, pred in sims[split].items():
-            top.plot(t, system.scale * pred, lw=0.8, label=label)
+        errors = {}
+        for i, (label, pred) in enumerate(sims[split].items()):
+            top.plot(t, system.scale * pred, lw=0.8, label=label, color=f"C{i}")
             err = system.scale * (pred - np.ravel(y))
             err[:n_init] = np.nan
-            bottom.plot(t, err, lw=0.6, label=label)
+            # The black-box models' errors can be 100 times larger: the error
+            # panel shows the physics-based ones, the largest drawn first.
             if label.startswith(("physics", "state-space")):
-                spread.append(np.nanmax(np.abs(err)))
-        if spread:
-            # The black-box models' errors can be 100 times larger: the axis
-            # shows the physics-based ones, the others are clipped.
-            lim = 1.1 * max(spread)
-            bottom.set_ylim(-lim, lim)
+                errors[label] = (i, err)
+        order = sorted(errors, key=lambda k: -np.nanmean(errors[k][1] ** 2))
+        for label in order:
+            i, err = errors[label]
+            bottom.plot(t, err, lw=0.6, label=label, color=f"C{i}")
+        bottom.legend(fontsize=7)
         for ax in (top, bottom):
             ax.axvspan(0, n_init * dt, color="0.9")
             if split in hull and hull[split]["first_outside"] is not None:
@@ -327,7 +328,7 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         top.set_title(f"{system.title}: {split}")
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
-        bottom.set_ylabel(f"simulation error [{unit}]\n(axis: physics-based models)")
+        bottom.set_ylabel(f"simulation error [{unit}]\n(physics-based models)")
         bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
         top.legend(fontsize=7)
     fig.tight_layout()

@@ -419,6 +419,9 @@ class DomainModel(
         if jac == "autograd":
             self._check_autograd()
             jac = self._autograd_jacobian(X, y, spec)
+        else:
+            batched = self._batched_jacobian(spec)
+            jac = jac if batched is None else batched
         # least_squares stops when the gradient J^T f falls below an absolute
         # gtol, and steps its finite differences by absolute amounts: both depend
         # on the units of the data and of the parameters. It therefore works on
@@ -526,6 +529,10 @@ class DomainModel(
         if self.jac == "autograd":
             return self._autograd_jacobian(X, y, spec, objective_fn=False)(theta), base
         return _central_differences(raw, theta, spec, base.size), base
+
+    def _batched_jacobian(self, spec):
+        """A callable Jacobian that evaluates all its steps in one batch, or None."""
+        return
 
     def _standard_errors(self, X, y, spec, theta):
         """Standard errors from the Gauss-Newton covariance ``s^2 (J^T J)^-1``.

@@ -147,6 +147,14 @@ default=None
         Most residual evaluations.
     n_steps : int, default=1
         Time steps per row of ``X`` (the window of ``fit`` and ``predict``).
+    vectorized : bool, default=False
+        Whether ``rhs`` (and ``output``) broadcast parameter values given as
+        arrays of shape ``(n,)``, one value per row of ``x`` (plain elementwise
+        arithmetic does). Then ``fit_simulation`` simulates the perturbed
+        parameter sets of its finite-difference Jacobians in one batch
+        (``jac="2-point"``, ``objective="mse"``): one pass over the records per
+        Jacobian instead of one per parameter, which matters where a record is
+        long and the model cheap. Needs scalar parameters.
 
     Attributes
     ----------
@@ -211,6 +219,7 @@ default=None
         "n_init": [Interval(Integral, 1, None, closed="left")],
         "estimate_observed": ["boolean"],
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
+        "vectorized": ["boolean"],
     }
 
     def __init__(
@@ -240,6 +249,7 @@ default=None
         f_scale=1.0,
         max_nfev=None,
         n_steps=1,
+        vectorized=False,
     ):
         super().__init__(
             fixed=fixed,
@@ -267,6 +277,7 @@ default=None
         self.n_init = n_init
         self.estimate_observed = estimate_observed
         self.identifiability_tol = identifiability_tol
+        self.vectorized = vectorized
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -621,7 +632,8 @@ default=None
         target = Y.reshape(n, -1)
 
         def residuals(X0, reps):
-            out, _ = self._run(X0, np.repeat(U, reps, axis=0), params, observed, np, k)
+            rows = _repeat_rows(params, n, reps) if self.vectorized else params
+            out, _ = self._run(X0, np.repeat(U, reps, axis=0), rows, observed, np, k)
             with np.errstate(all="ignore"):
                 r = out.reshape(X0.shape[0], -1) - np.repeat(target, reps, axis=0)
             bad = ~np.isfinite(r)
@@ -646,18 +658,22 @@ default=None
             ridge = 1e-12 * (np.max(diag, axis=1) + 1e-300)
             start_cost = cost.copy()
             small = np.zeros(n, dtype=bool)
+            # One accepted step per row and iteration: each row's path is the
+            # one it would take alone, whatever the other rows of the batch do.
+            accepted = np.zeros(n, dtype=bool)
             for _ in range(10):
                 damping = lam[:, None] * diag + ridge[:, None]
                 delta = -np.linalg.solve(JtJ + damping[:, :, None] * eye, g)[..., 0]
                 trial = x0.copy()
                 trial[:, free] = z + delta
                 cost_trial = np.sum(residuals(trial, 1) ** 2, axis=1)
-                better = (cost_trial < cost) & ~done
+                better = (cost_trial < cost) & ~done & ~accepted
                 x0 = np.where(better[:, None], trial, x0)
                 cost = np.where(better, cost_trial, cost)
-                lam = np.where(better, lam / 10, lam * 10)
+                lam = np.where(better, lam / 10, np.where(accepted, lam, lam * 10))
+                accepted |= better
                 small |= np.all(np.abs(delta) <= 1e-12 * (np.abs(z) + 1e-9), axis=1)
-                if np.all(better | done | small):
+                if np.all(accepted | done | small):
                     break
             gain = (start_cost - cost) / (start_cost + 1e-300)
             done |= small | (gain < 1e-6)
@@ -865,6 +881,12 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         mask = np.arange(T)[None, :] < lengths[:, None]
         y_flat = Y[mask]
         init = self._initial_params()
+        if self.vectorized and any(np.ndim(v) for v in init.values()):
+            raise ValueError(
+                "vectorized=True broadcasts one value of each parameter per row; "
+                "every parameter must be a scalar, got array-valued "
+                f"{sorted(k for k, v in init.items() if np.ndim(v))}."
+            )
         spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
         self._spec = spec
         if self.objective != "mse" and self.ljung_box_lags >= y_flat.shape[0]:
@@ -926,8 +948,61 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 return np.reshape(self._record_residuals(t, spec), -1)
 
             base = raw(theta)
-            J = _central_differences(raw, theta, spec, base.size)
+            if self._batched_records():
+                J = _central_differences_batch(
+                    lambda sets: self._record_residuals_batch(sets, spec),
+                    theta,
+                    spec,
+                )
+            else:
+                J = _central_differences(raw, theta, spec, base.size)
         return J, base
+
+    def _batched_records(self):
+        """Whether the records' Jacobians are simulated in one batch."""
+        return (
+            self.vectorized
+            and getattr(self, "_records", None) is not None
+            and self.jac == "2-point"
+        )
+
+    def _record_residuals_batch(self, thetas, spec):
+        """Residuals ``(n_sets, n_residuals)`` of parameter sets ``thetas``."""
+        U, Y, mask, structure = self._records
+        n_sets, n_rec = len(thetas), U.shape[0]
+        per_set = [spec.to_dict(t) for t in thetas]
+        params = {
+            name: (
+                np.repeat([p[name] for p in per_set], n_rec)
+                if name in spec.free
+                else per_set[0][name]
+            )
+            for name in per_set[0]
+        }
+        U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
+        out, _ = self._simulate_records(U_all, Y_all, params, structure)
+        with np.errstate(all="ignore"):
+            r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
+        r = r.reshape(n_sets, -1)
+        return np.where(np.isfinite(r), r, _DIVERGED_RESIDUAL)
+
+    def _batched_jacobian(self, spec):
+        if not self._batched_records() or self.objective != "mse":
+            return None
+
+        def jac(theta):
+            theta = np.asarray(theta, dtype=float)
+            size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+            step = np.sqrt(np.finfo(float).eps) * size
+            # Step backwards where the upper bound is too close.
+            step = np.where(theta + step > spec.upper, -step, step)
+            sets = np.vstack([theta, theta + np.diag(step)])
+            R = self._record_residuals_batch(sets, spec)
+            J = ((R[1:] - R[0]) / step[:, None]).T
+            # objective="mse" divides the residuals by the root of their number.
+            return J / np.sqrt(R.shape[1])
+
+        return jac
 
     # -- simulation ----------------------------------------------------------------
     def simulate_from_state(self, inputs, states):
@@ -1033,6 +1108,31 @@ n_init, n_outputs) or list of 2-D arrays
             Y = np.stack([Y_list[i] for i in idx])
             x0[idx] = self._estimate_x0(Y, U, self.params_, structure)
         return self._free_run_records(U_list, x0, form, initial=Y_list)
+
+
+def _repeat_rows(params, n, reps):
+    """``params`` with each per-row array (shape ``(n,)``) repeated ``reps`` times."""
+    if reps == 1:
+        return params
+    return {
+        k: np.repeat(v, reps) if np.ndim(v) == 1 and np.shape(v)[0] == n else v
+        for k, v in params.items()
+    }
+
+
+def _central_differences_batch(raw_batch, theta, spec):
+    """:func:`_central_differences` with every step simulated in one batch."""
+    size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+    step = np.finfo(float).eps ** (1 / 3) * size
+    hi = np.maximum(np.minimum(step, spec.upper - theta), 0.0)
+    lo = np.maximum(np.minimum(step, theta - spec.lower), 0.0)
+    eye = np.eye(theta.size)
+    sets = np.vstack([theta + eye * hi[:, None], theta - eye * lo[:, None]])
+    R = raw_batch(sets)
+    width = hi + lo
+    J = (R[: theta.size] - R[theta.size :]) / np.where(width > 0, width, 1.0)[:, None]
+    J[width == 0] = 0.0
+    return J.T
 
 
 def _groups(sizes):

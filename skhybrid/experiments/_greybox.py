@@ -1,256 +1,336 @@
-"""Grey-box state-space physics of the measured benchmarks, fitted by simulation error.
+"""Grey-box physics of the measured benchmarks as :class:`StateSpaceModel` s.
 
-Each physics model is a discrete-time state map ``x(t+1) = step(x(t), u(t); p)`` and
-an output ``y(t) = output(x(t); p)``; unmeasured states (the EMPS velocity, the
-upper tank's level, the Silverbox's derivative) are latent. :class:`OutputErrorModel`
-fits the parameters and the initial state on a whole estimation record by least
-squares on the free-run (simulation) error, with a forward-difference Jacobian
-whose perturbed trajectories are simulated in one batch, and estimates the initial
-state of a new experiment from its initialisation window.
+Each benchmark's physics is a :class:`~skhybrid.domain.StateSpaceModel` whose
+unmeasured states are latent: the upper tank's level, the EMPS velocity, the
+Silverbox's derivative. Their initial values are estimated from the
+initialisation window by least squares through the physics, and the parameters
+are fitted by the free-run (output) error with
+:meth:`StateSpaceModel.fit_simulation`, the one output-error fit of the library.
+The state equations are written with the array namespace ``xp``, so that the
+state-space hybrid (:class:`~skhybrid.hybrid.StateSpaceHybridRegressor`) trains
+through them in torch.
+
+The Silverbox's input is band-limited, not held between samples: its Duffing
+equation is integrated with the input interpolated linearly between ``u(t)``
+and ``u(t + 1)`` (first-order hold), so its model input holds both
+(:func:`with_next_input`). Its fit starts from a one-step (equation-error)
+regression on finite differences and refines by the simulation error over
+segments of the record (multiple shooting: every segment's initial state is
+estimated from its own first samples), which keeps a lightly damped
+oscillator's least-squares landscape free of the local minima of one long free
+run.
 """
 
-import numpy as np
-from scipy.optimize import least_squares
+import itertools
 
-from skhybrid.exceptions import SimulationDivergedError
+import numpy as np
+
+from skhybrid.domain import StateSpaceModel
 
 __all__ = [
-    "OutputErrorModel",
-    "duffing_step",
-    "emps_step",
-    "tanks_step",
+    "TransformedInputs",
+    "duffing_foh",
+    "emps_axis",
+    "emps_physics",
+    "fit_segments",
+    "silverbox_physics",
+    "tanks",
+    "tanks_output",
+    "tanks_physics",
+    "with_next_input",
 ]
 
 
-def tanks_step(x, u, p, *, dt=4.0, n_sub=4):
-    """Two tanks with Torricelli outflow and the upper tank's overflow.
+# -- cascaded tanks ----------------------------------------------------------------
+def tanks(x, u, *, xp, k1, k2, k3, k4, k5, k6, x1max, kof, y_offset, dt, n_sub):
+    """Two tanks with Torricelli outflow and the upper tank's overflow (discrete).
 
-    ``x1' = -k1 sqrt(x1) - k5 x1 + k4 u`` (upper tank, overflowing at ``x1max``;
-    a share ``kof`` of the overflow reaches the lower tank) and
-    ``x2' = k2 sqrt(x1) + k5 x1 - k3 sqrt(x2) - k6 x2`` (lower tank), Euler with
-    ``n_sub`` sub-steps per sample. ``x`` (batch, 2), ``p`` (batch, 9).
+    ``x1' = -k1 sqrt(x1) - k5 x1 + k4 u`` (upper tank, latent; it overflows at
+    ``x1max`` and a share ``kof`` of the overflow reaches the lower tank) and
+    ``z' = k2 sqrt(x1) + k5 x1 - k3 sqrt(z - y_offset) - k6 (z - y_offset)``,
+    ``z`` the lower tank's level in sensor volts (its level plus the sensor's
+    offset ``y_offset``). Explicit Euler with ``n_sub`` sub-steps per sample of
+    ``dt`` seconds.
     """
-    k1, k2, k3, k4, x1max, kof, k5, k6 = (p[:, i] for i in range(8))
+    x1, z = x[:, 0], x[:, 1]
     h = dt / n_sub
-    x1, x2 = x[:, 0], x[:, 1]
-    for _ in range(n_sub):
-        s1 = np.sqrt(np.maximum(x1, 0.0))
-        s2 = np.sqrt(np.maximum(x2, 0.0))
-        x1_next = x1 + h * (-k1 * s1 - k5 * x1 + k4 * u)
-        overflow = np.maximum(x1_next - x1max, 0.0)
-        x2 = x2 + h * (k2 * s1 + k5 * x1 - k3 * s2 - k6 * x2) + kof * overflow
+    for _ in range(int(n_sub)):
+        s1 = xp.sqrt(xp.maximum(x1, 0.0 * x1))
+        x2 = z - y_offset
+        s2 = xp.sqrt(xp.maximum(x2, 0.0 * x2))
+        x1_next = x1 + h * (-k1 * s1 - k5 * x1 + k4 * u[:, 0])
+        overflow = xp.maximum(x1_next - x1max, 0.0 * x1)
+        z = z + h * (k2 * s1 + k5 * x1 - k3 * s2 - k6 * x2) + kof * overflow
         x1 = x1_next - overflow
-    return np.stack([x1, x2], axis=1)
+    return xp.stack([x1, z], axis=1)
 
 
-def tanks_output(x, p):
-    """Lower-tank sensor: level plus offset ``p[:, 8]``, clipping at 10 V."""
-    return np.minimum(x[:, 1] + p[:, 8], 10.0)
+def tanks_output(x, *, xp, **params):
+    """The lower tank's sensor, which saturates at 10 V."""
+    return xp.minimum(x[:, 1:2], 10.0 + 0.0 * x[:, 1:2])
 
 
-def emps_step(x, u, p, *, dt=1e-3, gtau=35.15, eps=1e-4):
-    """Rigid axis ``M q'' = gtau u - Fv q' - Fc sign(q') - offset`` (semi-implicit).
-
-    ``p`` columns: ``M`` (kg), ``Fv`` (N s/m), ``Fc`` (N), ``offset`` (N), and
-    optionally ``Fv_neg``, ``Fc_neg`` (friction for negative velocities, the
-    first two then hold for positive ones); the sign is smoothed as
-    ``tanh(q'/eps)``.
-    """
-    M, Fv, Fc, offset = (p[:, i] for i in range(4))
-    q, v = x[:, 0], x[:, 1]
-    friction = Fv * v + Fc * np.tanh(v / eps)
-    if p.shape[1] > 4:  # asymmetric friction: Fv-, Fc- for negative velocities
-        w = 0.5 * (1.0 + np.tanh(v / eps))
-        friction = w * friction + (1 - w) * (p[:, 4] * v + p[:, 5] * np.tanh(v / eps))
-    acc = (gtau * u - friction - offset) / M
-    v = v + dt * acc
-    return np.stack([q + dt * v, v], axis=1)
+def _tanks_guess(outputs, inputs):
+    """Upper tank mid-range, lower tank at its first measured value."""
+    y0 = np.asarray(outputs)[:, 0, 0]
+    return np.column_stack([np.full_like(y0, 5.0), y0])
 
 
-def emps_output(x, p):
-    """The measured position ``q`` (m)."""
-    return x[:, 0]
-
-
-def _duffing_rhs(x, u, p):
-    k, d, a, b = (p[:, i] for i in range(4))
-    y, v = x[:, 0], x[:, 1]
-    return np.stack([v, k * u - d * v - a * y - b * y**3], axis=1)
-
-
-def duffing_step(x, u, p, *, dt=2**14 / 1e7):
-    """Duffing oscillator ``y'' = k u - d y' - a y - b y^3`` (RK4, input held).
-
-    ``p`` columns: ``k`` (input gain per unit mass), ``d``, ``a``, ``b`` (damping,
-    stiffness and cubic stiffness per unit mass), ``y0`` (output offset).
-    """
-    k1 = _duffing_rhs(x, u, p)
-    k2 = _duffing_rhs(x + 0.5 * dt * k1, u, p)
-    k3 = _duffing_rhs(x + 0.5 * dt * k2, u, p)
-    k4 = _duffing_rhs(x + dt * k3, u, p)
-    return x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
-def duffing_output(x, p):
-    """The output voltage: ``y`` plus offset ``p[:, 4]``."""
-    return x[:, 0] + p[:, 4]
-
-
-def simulate_batch(step, output, P, x0, u):
-    """Outputs ``(batch, n_times)`` of ``batch`` parameter sets and initial states."""
-    P = np.atleast_2d(np.asarray(P, dtype=float))
-    x = np.atleast_2d(np.asarray(x0, dtype=float)).copy()
-    u = np.asarray(u, dtype=float).reshape(len(u), -1)[:, 0]
-    Y = np.empty((len(x), len(u)))
-    with np.errstate(all="ignore"):
-        for t in range(len(u)):
-            Y[:, t] = output(x, P)
-            x = step(x, u[t], P)
-    return Y
-
-
-class OutputErrorModel:
-    """A state-space physics model fitted by its free-run (output) error.
+def tanks_physics(dt, *, max_nfev=100):
+    """The cascaded tanks' grey-box :class:`StateSpaceModel` (level units: volts).
 
     Parameters
     ----------
-    step, output : callable
-        ``step(x, u, p)`` and ``output(x, p)`` on batches (see :func:`tanks_step`).
-    params : dict of str to float
-        Initial parameter values, in ``step``'s column order.
-    bounds : dict of str to (float, float)
-        Bounds of the parameters (others are unbounded).
-    x0 : sequence of float
-        Initial guess of the state at the start of a record.
-    state_names : sequence of str
-        Names of the states (the first is not necessarily measured).
-    x0_from_y : callable or None
-        ``x0_from_y(y_init)`` a guess of the initial state from measured outputs;
-        None uses ``x0``.
-    max_nfev : int
-        Most residual evaluations of the parameter fit.
+    dt : float
+        Sample period (s), ``data.dt``.
+    max_nfev : int, default=100
+        Most residual evaluations of the fit.
 
-    Attributes
+    Returns
+    -------
+    model : StateSpaceModel
+        Unfitted; ``fixed`` holds ``dt`` and the sub-steps.
+    """
+    return StateSpaceModel(
+        tanks,
+        {
+            "k1": 0.05,
+            "k2": 0.05,
+            "k3": 0.05,
+            "k4": 0.03,
+            "k5": 0.001,
+            "k6": 0.001,
+            "x1max": 6.0,
+            "kof": 0.3,
+            "y_offset": 0.5,
+            "dt": float(dt),
+            "n_sub": 4.0,
+        },
+        state_names=["upper level (latent)", "lower level"],
+        output=tanks_output,
+        time="discrete",
+        initial_state=_tanks_guess,
+        n_init=50,
+        fixed=("dt", "n_sub"),
+        bounds={
+            "k1": (1e-4, 1),
+            "k2": (1e-4, 1),
+            "k3": (1e-4, 1),
+            "k4": (1e-4, 1),
+            "k5": (0.0, 1.0),
+            "k6": (0.0, 1.0),
+            "x1max": (1.0, 100.0),
+            "kof": (0.0, 1.0),
+            "y_offset": (-3.0, 3.0),
+        },
+        max_nfev=max_nfev,
+        vectorized=True,
+    )
+
+
+# -- EMPS ----------------------------------------------------------------------------
+def emps_axis(x, u, *, xp, M, Fv, Fc, offset, gtau, dt, eps):
+    """Rigid axis ``M q'' = gtau u - Fv q' - Fc sign(q') - offset`` (discrete).
+
+    Semi-implicit Euler over one sample of ``dt`` seconds: the velocity first,
+    then the position with the new velocity; the sign is smoothed as
+    ``tanh(q' / eps)``.
+    """
+    q, v = x[:, 0], x[:, 1]
+    acc = (gtau * u[:, 0] - Fv * v - Fc * xp.tanh(v / eps) - offset) / M
+    v_next = v + dt * acc
+    return xp.stack([q + dt * v_next, v_next], axis=1)
+
+
+def emps_physics(dt, *, n_init=20, max_nfev=60):
+    """The EMPS reference model as a :class:`StateSpaceModel` (velocity latent).
+
+    Parameters
     ----------
-    params_ : dict of str to float
-        Fitted parameters.
-    params_std_ : dict of str to float
-        Standard errors from the Gauss-Newton covariance of the simulation error.
-    x0_ : ndarray
-        Estimated initial state of the estimation record.
-    rmse_ : float
-        Free-run RMSE on the estimation record.
+    dt : float
+        Sample period (s), ``data.dt``.
+    n_init : int, default=20
+        Samples from which a record's initial velocity is estimated.
+    max_nfev : int, default=60
+        Most residual evaluations of the fit.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        Unfitted; the motor constant ``gtau = 35.15 N/V`` (the description's),
+        ``dt`` and the smoothing ``eps`` are fixed.
+    """
+    return StateSpaceModel(
+        emps_axis,
+        {
+            "M": 95.0,
+            "Fv": 200.0,
+            "Fc": 20.0,
+            "offset": -3.0,
+            "gtau": 35.15,
+            "dt": float(dt),
+            "eps": 1e-4,
+        },
+        state_names=["position", "velocity (latent)"],
+        observed=["position"],
+        time="discrete",
+        n_init=n_init,
+        fixed=("gtau", "dt", "eps"),
+        bounds={"M": (1.0, 1e3), "Fv": (0.0, 1e4), "Fc": (0.0, 1e3)},
+        max_nfev=max_nfev,
+        vectorized=True,
+    )
+
+
+# -- Silverbox -------------------------------------------------------------------------
+def with_next_input(u):
+    """Columns ``[u(t), u(t + 1)]`` (the last sample repeats) of a 1-input record."""
+    u = np.asarray(u, dtype=float).reshape(len(u), -1)[:, 0]
+    return np.column_stack([u, np.r_[u[1:], u[-1:]]])
+
+
+def _duffing_rhs(y, v, u, g, d, k1, k2, k3, c):
+    return v, g * u + c - d * v - k1 * y - k2 * y**2 - k3 * y**3
+
+
+def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3`` over one sample.
+
+    Classical Runge-Kutta over ``dt`` with the input interpolated linearly from
+    ``u[:, 0]`` (at the sample) to ``u[:, 1]`` (at the next): a first-order
+    hold. The quadratic term ``k2`` and the constant ``c`` absorb the circuit's
+    asymmetry and offsets.
+    """
+    y, v = x[:, 0], x[:, 1]
+    u0, u1 = u[:, 0], u[:, 1]
+    um = 0.5 * (u0 + u1)
+    p = (g, d, k1, k2, k3, c)
+    a1, b1 = _duffing_rhs(y, v, u0, *p)
+    a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, um, *p)
+    a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, um, *p)
+    a4, b4 = _duffing_rhs(y + dt * a3, v + dt * b3, u1, *p)
+    return xp.stack(
+        [
+            y + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+            v + dt / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+        ],
+        axis=1,
+    )
+
+
+def _duffing_equation_error(u, y, dt):
+    """One-step start: regress central second differences of ``y`` on the terms."""
+    u, y = np.ravel(u), np.ravel(y)
+    if len(y) < 8:
+        raise ValueError(
+            f"the Duffing start needs at least 8 samples; got {len(y)} samples."
+        )
+    ydd = (y[2:] - 2.0 * y[1:-1] + y[:-2]) / dt**2
+    yd = (y[2:] - y[:-2]) / (2.0 * dt)
+    yc = y[1:-1]
+    A = np.column_stack([u[1:-1], np.ones_like(yc), -yd, -yc, -(yc**2), -(yc**3)])
+    theta = np.linalg.lstsq(A, ydd, rcond=None)[0]
+    return dict(zip(("g", "c", "d", "k1", "k2", "k3"), theta.tolist(), strict=True))
+
+
+def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30):
+    """The Silverbox's Duffing :class:`StateSpaceModel`, started one step ahead.
+
+    Parameters
+    ----------
+    dt : float
+        Sample period (s), ``data.dt``.
+    u, y : array-like of shape (n_times, 1)
+        Estimation record: its equation-error regression gives the start.
+    n_init : int, default=50
+        Samples from which a record's initial derivative is estimated.
+    max_nfev : int, default=30
+        Most residual evaluations of the simulation-error refinement.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        Unfitted, its ``params`` the one-step regression's; inputs are
+        :func:`with_next_input` columns.
+    """
+    params = _duffing_equation_error(u, y, dt)
+    params["dt"] = float(dt)
+    return StateSpaceModel(
+        duffing_foh,
+        params,
+        state_names=["output", "derivative (latent)"],
+        observed=["output"],
+        time="discrete",
+        n_init=n_init,
+        fixed=("dt",),
+        max_nfev=max_nfev,
+        vectorized=True,
+    )
+
+
+def fit_segments(model, u, y, segment):
+    """Fit ``model`` by the simulation error over consecutive segments of a record.
+
+    Multiple shooting: each segment of ``segment`` samples is a record whose
+    initial state is estimated from its own first ``model.n_init`` samples; the
+    remainder of the record (fewer than ``segment`` samples) joins the last
+    segment.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model to fit (in place).
+    u, y : ndarray of shape (n_times, n_inputs) and (n_times, n_outputs)
+        One record.
+    segment : int or None
+        Samples per segment; ``None`` fits the whole record at once.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        The fitted model.
+    """
+    n = len(y)
+    if segment is None or segment >= n:
+        return model.fit_simulation(u, y)
+    if segment <= model.n_init:
+        raise ValueError(
+            f"segment={segment} must exceed the model's n_init={model.n_init}: a "
+            "segment's first n_init samples only estimate its initial state."
+        )
+    n_seg = n // segment
+    bounds = [i * segment for i in range(n_seg)] + [n]
+    U = [u[a:b] for a, b in itertools.pairwise(bounds)]
+    Y = [y[a:b] for a, b in itertools.pairwise(bounds)]
+    return model.fit_simulation(U, Y)
+
+
+class TransformedInputs:
+    """A fitted model fed transformed inputs (the Silverbox's ``[u(t), u(t+1)]``).
+
+    Parameters
+    ----------
+    model : object
+        Anything with ``simulate(inputs, initial)``.
+    transform : callable or None
+        Maps a record's inputs to the model's; ``None`` passes them through.
     """
 
-    def __init__(
-        self,
-        step,
-        output,
-        params,
-        *,
-        bounds=None,
-        x0,
-        state_names,
-        x0_from_y=None,
-        max_nfev=100,
-    ):
-        self.step = step
-        self.output = output
-        self.params = dict(params)
-        self.bounds = dict(bounds or {})
-        self.x0 = np.asarray(x0, dtype=float)
-        self.state_names = list(state_names)
-        self.x0_from_y = x0_from_y
-        self.max_nfev = max_nfev
+    def __init__(self, model, transform=None):
+        self.model = model
+        self.transform = transform
 
-    def _p(self, params=None):
-        params = self.params_ if params is None else params
-        return np.array([params[k] for k in self.params], dtype=float)
-
-    def fit(self, u, y):
-        """Fit parameters and initial state on one record ``u``, ``y`` (n_times, 1)."""
-        y = np.asarray(y, dtype=float).ravel()
-        names = list(self.params)
-        n_p = len(names)
-        x0 = self.x0 if self.x0_from_y is None else self.x0_from_y(y[:20])
-        z0 = np.r_[self._p(self.params), x0]
-        scale = np.abs(z0) + 1e-3
-        lo = (
-            np.r_[
-                [self.bounds.get(k, (-np.inf, np.inf))[0] for k in names],
-                -np.inf * np.ones(len(x0)),
-            ]
-            / scale
-        )
-        hi = (
-            np.r_[
-                [self.bounds.get(k, (-np.inf, np.inf))[1] for k in names],
-                np.inf * np.ones(len(x0)),
-            ]
-            / scale
-        )
-
-        def residuals(Z):
-            theta = Z * scale
-            Y = simulate_batch(
-                self.step, self.output, theta[:, :n_p], theta[:, n_p:], u
-            )
-            R = Y - y
-            return np.where(np.isfinite(R), R, 1e3)
-
-        def fun(z):
-            return residuals(z[None])[0]
-
-        def jac(z):
-            e = 1e-6 * np.maximum(1.0, np.abs(z))
-            Z = np.vstack([z, z + np.diag(e)])
-            R = residuals(Z)
-            return ((R[1:] - R[0]) / e[:, None]).T
-
-        start = np.clip(z0 / scale, lo + 1e-12, hi - 1e-12)
-        result = least_squares(
-            fun, start, jac=jac, bounds=(lo, hi), max_nfev=self.max_nfev
-        )
-        theta = result.x * scale
-        self.params_ = dict(zip(names, theta[:n_p].tolist(), strict=True))
-        self.x0_ = theta[n_p:]
-        self.rmse_ = float(np.sqrt(np.mean(result.fun**2)))
-        J = result.jac * (1.0 / scale)  # derivatives w.r.t. theta
-        dof = max(len(y) - len(theta), 1)
-        sigma2 = 2 * result.cost / dof
-        with np.errstate(all="ignore"):
-            cov = np.linalg.pinv(J.T @ J) * sigma2
-        std = np.sqrt(np.abs(np.diag(cov)))
-        self.params_std_ = dict(zip(names, std[:n_p].tolist(), strict=True))
-        self.result_ = result
-        return self
-
-    def initial_state(self, u_init, y_init):
-        """Least-squares initial state from the initialisation window."""
-        y_init = np.asarray(y_init, dtype=float).ravel()
-        guess = self.x0_ if self.x0_from_y is None else self.x0_from_y(y_init)
-        p = self._p()[None]
-
-        def fun(x0):
-            r = simulate_batch(self.step, self.output, p, x0[None], u_init)[0] - y_init
-            return np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6)
-
-        return least_squares(fun, guess).x
+    def inputs(self, u):
+        """The model's inputs for the record inputs ``u``."""
+        if self.transform is None:
+            return np.asarray(u, dtype=float)
+        return self.transform(u)
 
     def simulate(self, inputs, initial):
-        """Free-run outputs ``(n_times, 1)`` from the inputs and a measured window.
+        """Free run of the model from the measured window ``initial``."""
+        return self.model.simulate(self.inputs(inputs), initial)
 
-        The initial state is estimated from ``initial`` (the first ``n_init``
-        measured outputs) and the inputs over it; the returned first ``n_init``
-        samples are the model's own outputs.
-        """
-        inputs = np.asarray(inputs, dtype=float)
-        n_init = len(initial)
-        x0 = self.initial_state(inputs[:n_init], initial)
-        Y = simulate_batch(self.step, self.output, self._p()[None], x0[None], inputs)[0]
-        bad = np.flatnonzero(~np.isfinite(Y))
-        if bad.size:
-            raise SimulationDivergedError(
-                f"the physics simulation became non-finite at step {bad[0]}."
-            )
-        return Y[:, None]
+    def __getattr__(self, name):
+        if name in ("model", "transform"):
+            raise AttributeError(name)
+        return getattr(self.model, name)

@@ -264,6 +264,51 @@ def test_latent_state_fit_by_simulation_error():
     np.testing.assert_allclose(windowed.predict(X), target[:, 0], atol=1e-3)
 
 
+def test_vectorized_fit_is_the_same_in_one_batch_per_jacobian():
+    """vectorized=True: the same fit, with one simulation per Jacobian."""
+    rng = np.random.default_rng(4)
+    U = np.repeat(rng.uniform(-1, 1, (3, 15)), 10, axis=1)[..., None]
+    truth = _known(
+        damped,
+        {"omega": 2.0, "zeta": 0.2},
+        state_names=["x", "v"],
+        observed=["x"],
+        dt=0.1,
+        n_substeps=2,
+    )
+    Y = truth.simulate_from_state(U, [[0.4, -0.3], [0.0, 0.5], [-0.2, 0.0]])
+    Y = Y + 1e-3 * rng.normal(size=Y.shape)
+    calls = {"n": 0}
+
+    def counted(x, u, *, xp, omega, zeta):
+        calls["n"] += 1
+        return damped(x, u, xp=xp, omega=omega, zeta=zeta)
+
+    fits = {}
+    for vectorized in (False, True):
+        calls["n"] = 0
+        fits[vectorized] = StateSpaceModel(
+            counted,
+            {"omega": 1.7, "zeta": 0.3},
+            state_names=["x", "v"],
+            observed=["x"],
+            dt=0.1,
+            n_substeps=2,
+            n_init=10,
+            vectorized=vectorized,
+        ).fit_simulation(U, Y)
+        fits[vectorized].calls_ = calls["n"]
+    for name in ("omega", "zeta"):
+        assert fits[True].params_[name] == pytest.approx(
+            fits[False].params_[name], rel=1e-6
+        )
+        assert fits[True].params_std_[name] == pytest.approx(
+            fits[False].params_std_[name], rel=1e-3
+        )
+    assert fits[True].params_["omega"] == pytest.approx(2.0, rel=1e-2)
+    assert fits[True].calls_ < fits[False].calls_
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [

@@ -9,78 +9,148 @@ from numpy.testing import assert_allclose
 from skhybrid.cli import main
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.experiments._greybox import (
-    OutputErrorModel,
-    emps_output,
-    emps_step,
-    simulate_batch,
+    emps_physics,
+    fit_segments,
+    silverbox_physics,
+    tanks,
     tanks_output,
-    tanks_step,
+    tanks_physics,
+    with_next_input,
 )
-from skhybrid.experiments._measured import (
-    MEASURED_SYSTEMS,
-    PUBLISHED,
-    _rmse,
-    _windows,
-    run_measured,
-)
+from skhybrid.experiments._measured import MEASURED_SYSTEMS, PUBLISHED, run_measured
+from skhybrid.experiments._measured_zoo import _records, _rmse, _windows
+
+TRUTH = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
 
 
-def _emps_model(**kwargs):
-    # About 20 % off the truth of the test below.
-    return OutputErrorModel(
-        emps_step,
-        emps_output,
-        {"M": 80.0, "Fv": 170.0, "Fc": 17.0, "offset": -2.0},
-        bounds={"M": (1.0, 1e3), "Fv": (0.0, 1e4), "Fc": (0.0, 1e3)},
-        x0=[0.0, 0.0],
-        state_names=["position", "velocity"],
-        x0_from_y=lambda y: np.array([y[0], 0.0]),
-        **kwargs,
-    )
-
-
-def test_output_error_fit_recovers_the_emps_parameters():
-    """Simulated axis: the simulation-error fit finds M, Fv, Fc and the offset."""
-    rng = np.random.default_rng(0)
-    n = 3000
+def _emps_data(n=3000, seed=0):
+    rng = np.random.default_rng(seed)
     t = np.arange(n) * 1e-3
     u = np.sin(2 * np.pi * 1.5 * t) + 0.5 * np.sin(2 * np.pi * 15.1 * t + 1.0)
-    u = u[:, None]
-    u += 0.1 * rng.standard_normal(u.shape)
-    truth = np.array([[95.0, 200.0, 20.0, -3.0]])
-    y = simulate_batch(emps_step, emps_output, truth, [[0.0, 0.0]], u)[0]
-    model = _emps_model(max_nfev=100).fit(u, y[:, None])
-    fitted = np.array(list(model.params_.values()))
-    assert_allclose(fitted, truth[0], rtol=2e-2, atol=0.05)
-    assert model.rmse_ < 1e-5
-    assert set(model.params_std_) == set(model.params_)
+    u = u[:, None] + 0.1 * rng.standard_normal((n, 1))
+    truth = emps_physics(1e-3).set_params(
+        params={**emps_physics(1e-3).params, **TRUTH},
+        fixed=tuple(emps_physics(1e-3).params),
+    )
+    y = truth.fit_simulation(u, np.zeros((n, 1))).simulate_from_state(u, [0.0, 0.0])
+    return u, y
+
+
+def _emps_start(**kwargs):
+    # About 20 % off the truth.
+    model = emps_physics(1e-3, **kwargs)
+    start = {"M": 80.0, "Fv": 170.0, "Fc": 17.0, "offset": -2.0}
+    return model.set_params(params={**model.params, **start})
+
+
+@pytest.mark.parametrize("vectorized", [False, True])
+def test_simulation_error_fit_recovers_the_emps_parameters(vectorized):
+    """Simulated axis: the output-error fit finds M, Fv, Fc and the offset."""
+    u, y = _emps_data()
+    model = _emps_start(max_nfev=100).set_params(vectorized=vectorized)
+    model.fit_simulation([u[:1500], u[1500:]], [y[:1500], y[1500:]])
+    fitted = np.array([model.params_[k] for k in TRUTH])
+    assert_allclose(fitted, list(TRUTH.values()), rtol=1e-4)
+    assert model.rmse_ < 1e-8
+    assert model.params_std_["gtau"] == 0.0 and model.params_std_["M"] < 1e-3
     # The latent velocity is estimated from the initialisation window alone.
     sim = model.simulate(u[1000:], y[1000:1020])
     assert sim.shape == (2000, 1)
-    # An integrating plant: a 20-sample window leaves a small velocity error.
-    assert _rmse(y[1000:], sim, 20) < 0.05 * np.ptp(y[1000:])
+    assert _rmse(y[1000:], sim, 20) < 1e-3 * np.ptp(y[1000:])
+
+
+def test_vectorized_jacobian_matches_the_sequential_one():
+    """One batched simulation gives the Jacobian of one simulation per parameter."""
+    u, y = _emps_data(n=800)
+    fits = [
+        _emps_start(max_nfev=2).set_params(vectorized=v).fit_simulation(u, y)
+        for v in (False, True)
+    ]
+    assert_allclose(
+        [fits[1].params_[k] for k in TRUTH],
+        [fits[0].params_[k] for k in TRUTH],
+        rtol=1e-6,
+    )
+    assert_allclose(
+        [fits[1].params_std_[k] for k in TRUTH],
+        [fits[0].params_std_[k] for k in TRUTH],
+        rtol=1e-3,
+    )
+
+
+def test_vectorized_needs_scalar_parameters():
+    model = _emps_start().set_params(vectorized=True)
+    model.set_params(params={**model.params, "M": [95.0, 96.0]})
+    u, y = _emps_data(n=200)
+    with pytest.raises(ValueError, match="must be a scalar"):
+        model.fit_simulation(u, y)
 
 
 def test_tanks_overflow_caps_the_upper_level():
-    p = np.array([[0.05, 0.05, 0.05, 0.5, 3.0, 0.5, 0.0, 0.0, 0.0]])
-    u = np.full((200, 1), 10.0)
+    p = {
+        "k1": 0.05,
+        "k2": 0.05,
+        "k3": 0.05,
+        "k4": 0.5,
+        "k5": 0.0,
+        "k6": 0.0,
+        "x1max": 3.0,
+        "kof": 0.5,
+        "y_offset": 0.0,
+        "dt": 4.0,
+        "n_sub": 4,
+    }
     x = np.array([[2.9, 1.0]])
     levels = []
-    for t in range(len(u)):
-        x = tanks_step(x, u[t, 0], p)
+    for _ in range(200):
+        x = tanks(x, np.full((1, 1), 10.0), xp=np, **p)
         levels.append(x[0, 0])
     assert max(levels) <= 3.0 + 1e-12
     # The lower tank's sensor clips at 10 V.
-    assert tanks_output(np.array([[1.0, 50.0]]), p)[0] == 10.0
+    assert tanks_output(np.array([[1.0, 50.0]]), xp=np)[0, 0] == 10.0
+    assert tanks_physics(4.0).n_init == 50
+
+
+def test_silverbox_duffing_is_found_one_step_ahead_then_by_segments():
+    """The equation-error start and the segment fit recover a known Duffing."""
+    dt = 2**14 / 1e7
+    rng = np.random.default_rng(1)
+    u = np.convolve(rng.standard_normal(3000), np.ones(4) / 4, mode="same")[:, None]
+    u = 0.2 * u
+    truth = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6.4e3, "k3": 7.5e5, "c": -1e3}
+    exact = silverbox_physics(dt, u, np.zeros((3000, 1))).set_params(
+        params={**truth, "dt": dt}, fixed=(*truth, "dt")
+    )
+    v = with_next_input(u)
+    y = exact.fit_simulation(v, np.zeros((3000, 1))).simulate_from_state(v, [0, 0])
+    model = silverbox_physics(dt, u, y, max_nfev=30)
+    start = model.params
+    assert abs(start["k1"] / truth["k1"] - 1) < 0.2
+    fit_segments(model, v, y, 500)
+    assert_allclose([model.params_[k] for k in truth], list(truth.values()), rtol=1e-3)
+    assert model.rmse_ < 1e-6 * np.ptp(y)
+
+
+def test_segments_and_records():
+    U, _ = _records(np.arange(10.0), np.arange(10.0), 3)
+    assert [len(a) for a in U] == [3, 3, 4]
+    model = emps_physics(1e-3)
+    with pytest.raises(ValueError, match="must exceed the model's n_init"):
+        fit_segments(model, np.zeros((100, 1)), np.zeros((100, 1)), 20)
+    assert with_next_input(np.array([[1.0], [2.0], [3.0]])).tolist() == [
+        [1.0, 2.0],
+        [2.0, 3.0],
+        [3.0, 3.0],
+    ]
 
 
 def test_diverging_physics_raises():
-    model = _emps_model()
-    # Negative damping: the velocity triples every step and overflows later on.
-    model.params_ = {"M": 1.0, "Fv": -2000.0, "Fc": 0.0, "offset": 0.0}
-    model.x0_ = np.zeros(2)
+    u, y = _emps_data(n=200)
+    model = _emps_start(max_nfev=1).fit_simulation(u, y)
+    # Negative damping: the velocity grows every step and overflows later on.
+    model.params_ = {**model.params_, "M": 1.0, "Fv": -2000.0, "Fc": 0.0}
     with pytest.raises(SimulationDivergedError, match="step"):
-        model.simulate(np.ones((5000, 1)), np.zeros(20) + 1e-3)
+        model.simulate(np.ones((5000, 1)), np.zeros((20, 1)) + 1e-3)
 
 
 def test_windows_are_causal_and_edge_padded():
@@ -149,3 +219,19 @@ def test_cascaded_tanks_quick_run(shared_data_dir, tmp_path):
         str(out),
     ]
     assert main(again) == 2
+
+
+@pytest.mark.slow
+def test_silverbox_quick_run(shared_data_dir, tmp_path):
+    """The Duffing physics beats the published linear model; hybrids are chosen
+    on the validation tail only."""
+    out = tmp_path / "silverbox"
+    results = run_measured(
+        "silverbox", shared_data_dir, out, quick=True, log=lambda line: None
+    )
+    rmse = results["test_rmse"]
+    assert rmse["test_multisine"]["physics"] < 6.96
+    assert "state-space hybrid" in results["selection"]
+    validation = results["validation_rmse"]
+    assert results["selected_model"] == min(validation, key=validation.get)
+    assert results["selection"]["physics"]["segment"] == 512

@@ -30,7 +30,7 @@ from skhybrid.datasets import make_dc_motor
 from skhybrid.domain import StateSpaceModel
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "domain"))
-from test_state_space import motor_rhs  # noqa: E402 (the physics with backlash)
+from test_state_space import motor_rhs  # the physics with backlash
 
 HORIZON = 1000
 STARTS = (50, 150)
@@ -113,10 +113,12 @@ def window_study(dt, window_ms, seed=1):
                 np.median(predicted) / sigma,
             )
         )
+        dt_ms, _, _, med, worst, floor, se, pred = rows[-1]
         print(
-            "dt %.0f ms, window %3d ms (%3d samples): RMSE/noise from the window "
-            "median %5.2f max %5.2f | true state %.2f | load-speed s.e. %.3f rad/s "
-            "| linearised prediction %5.2f" % rows[-1],
+            f"dt {dt_ms:.0f} ms, window {ms:3d} ms ({n_init:3d} samples): RMSE/noise "
+            f"from the window median {med:5.2f} max {worst:5.2f} | true state "
+            f"{floor:.2f} | load-speed s.e. {se:.3f} rad/s | linearised prediction "
+            f"{pred:5.2f}",
             flush=True,
         )
     return rows

@@ -1,7 +1,7 @@
 """StateSpaceHybridRegressor: contract, determinism, errors, transactions.
 
 The DC motor comparison with the physics alone and the windowed hybrids is
-benchmarks/bench_state_space_hybrid.py; the slow test runs it with a small budget.
+benchmarks/bench_state_space_hybrid.py; the slow test runs it.
 """
 
 import sys
@@ -193,31 +193,25 @@ def test_interrupt_leaves_previous_model(monkeypatch):
 
 
 @pytest.mark.slow
-def test_dc_motor_state_space_hybrid_beats_the_windowed_models():
-    """The benchmark with a smaller budget (a few minutes on 2 cores).
+def test_dc_motor_state_space_hybrid_beats_physics_and_windowed_models():
+    """Issue 14: the state-space hybrid beats the three others in free run.
 
-    Not the issue's criterion: the hybrid does not beat its physics on the
-    held-out free runs (benchmarks/bench_state_space_hybrid.py: 0.0519 against
-    0.0447 rad); this checks what holds.
-
-    The hybrid starts from the physics and early stopping keeps the starting
-    model as a candidate, so it is not worse than the physics alone by more than
-    the validation tail's noise; the windowed models drift in free run.
+    The benchmark itself (benchmarks/bench_state_space_hybrid.py, seed 0, its full
+    budget: about 7 minutes on 2 cores): on the held-out records' free runs the
+    hybrid (horizon chosen on the training records' validation tails) has a
+    lower load-angle RMSE than the physics alone, the windowed hybrid trained
+    one step ahead and the network alone. With a much smaller budget (10 epochs,
+    4 records) the hybrid is not better than its physics; see the guide.
     """
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_state_space_hybrid import run
 
-    results = run(
-        n_train=4, n_test=2, length=600, horizons=(20,), max_epochs=10, verbose=False
-    )
+    results = run(verbose=False)
     hybrid = next(v for k, v in results.items() if k.startswith("state-space"))
     others = [v for k, v in results.items() if not k.startswith("state-space")]
-    # With this budget the hybrid does not beat its physics (see the guide):
-    # the claim checked is that it stays close to it and far below the windowed
-    # models, whose absolute-angle inputs drift out of range in free run.
-    assert hybrid <= 1.5 * results["physics"]
-    assert hybrid < min(v for k, v in results.items() if k.startswith(("wind", "net")))
+    assert len(others) == 3
     assert all(np.isfinite(others))
+    assert hybrid < min(others)
 
 
 def _zero_network_but_bias(module, bias):

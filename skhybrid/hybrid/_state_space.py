@@ -27,6 +27,7 @@ from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
+    StrOptions,
     _fit_context,
     validate_data,
 )
@@ -84,8 +85,9 @@ class StateSpaceHybridRegressor(
       u(t)])``, ``step`` the discretised equations of a
       :class:`~skhybrid.domain.StateSpaceModel` (:meth:`StateSpaceModel.step`,
       evaluated in torch), ``S`` each state's typical change per sample and
-      ``c = correction_scale``; the network's output layer starts at zero, so
-      the model starts as the physics;
+      ``c = correction_scale``, or the same correction inside the continuous
+      equations (``correction_form="rhs"``); the network's output layer starts
+      at zero, so the model starts as the physics;
     - outputs ``y(t) = h(x(t))``, the physics' observed states;
     - an encoder network maps the initialisation window (the ``n_init``
       measured outputs and the ``n_init - 1`` inputs between them) to the
@@ -102,9 +104,10 @@ class StateSpaceHybridRegressor(
     training windows, so the joint training starts from the physics model.
     Adam on mini-batches of ``batch_size`` sub-sequences (all batches of equal
     size); early stopping on the free-run error over the last
-    ``validation_fraction`` of every record (each tail simulated from its first
-    ``n_init`` samples, as :meth:`simulate` would), keeping the best epoch (the
-    starting model included).
+    ``validation_fraction`` of every record, or on whole held-out records
+    (``validation_split``), each simulated from its first ``n_init`` samples as
+    :meth:`simulate` would, keeping the best epoch (the starting model
+    included).
 
     :meth:`fit` and :meth:`predict` follow scikit-learn's convention on windows
     of history (see :func:`~skhybrid.preprocessing.make_windows`): each row's
@@ -131,6 +134,15 @@ class StateSpaceHybridRegressor(
     correction_scale : float, default=0.01
         Factor ``c`` of the correction network's output, in units of each
         state's typical change per sample.
+    correction_form : {"step", "rhs"}, default="step"
+        Where the correction enters. ``"step"``: added to the state after each
+        sample, ``x(t+1) = step(x(t), u(t)) + c * S * net_f(x(t), u(t))``.
+        ``"rhs"``: added to the continuous-time equations, ``dx/dt = f(x, u) +
+        c * S / dt * net_f(x, u)``, and integrated with them by the physics'
+        ``method`` and ``n_substeps`` (the network is evaluated at every stage);
+        suited to a force the physics misses that acts within a sample (a
+        backlash, a friction). With ``time="discrete"`` physics both are the
+        same.
     correction_states : sequence of str or int, or None, default=None
         The states the correction network reads (names of
         ``physics.state_names`` or indices), besides the inputs; ``None`` reads
@@ -164,8 +176,18 @@ class StateSpaceHybridRegressor(
     patience : int, default=10
         Epochs without improvement of the validation loss before stopping.
     validation_fraction : float, default=0.2
-        Fraction at the end of every record (of the rows, in :meth:`fit`)
-        held out for early stopping; ``0`` stops on the training loss.
+        Fraction held out for early stopping: of every record's samples (at its
+        end) with ``validation_split="tail"``, of the records with
+        ``"records"``, of the rows in :meth:`fit`; ``0`` stops on the training
+        loss.
+    validation_split : {"tail", "records"}, default="tail"
+        What :meth:`fit_simulation` holds out for early stopping. ``"tail"``:
+        the last ``validation_fraction`` of every record. ``"records"``: the
+        last ``round(validation_fraction * n_records)`` records (at least one)
+        whole, each simulated in free run from its first ``n_init`` samples to
+        its end, so that the model kept is the one that simulates longest
+        without drifting (the tails may be far shorter than the free runs the
+        model is meant for). Ignored by :meth:`fit`.
     stride : int, default=1
         Samples between the starts of consecutive training sub-sequences (1:
         every sub-sequence; larger values train faster on long records).
@@ -255,6 +277,7 @@ class StateSpaceHybridRegressor(
         "hidden_layer_sizes": [tuple, list],
         "encoder_hidden_layer_sizes": [tuple, list],
         "correction_scale": [Interval(Real, 0, None, closed="left")],
+        "correction_form": [StrOptions({"step", "rhs"})],
         "correction_states": [list, tuple, None],
         "corrected_states": [list, tuple, None],
         "encoder_absolute": ["boolean"],
@@ -265,6 +288,7 @@ class StateSpaceHybridRegressor(
         "batch_size": [Interval(Integral, 1, None, closed="left")],
         "patience": [Interval(Integral, 1, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "validation_split": [StrOptions({"tail", "records"})],
         "stride": [Interval(Integral, 1, None, closed="left")],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
@@ -281,6 +305,7 @@ class StateSpaceHybridRegressor(
         hidden_layer_sizes=(32, 32),
         encoder_hidden_layer_sizes=(32,),
         correction_scale=0.01,
+        correction_form="step",
         correction_states=None,
         corrected_states=None,
         encoder_absolute=True,
@@ -291,6 +316,7 @@ class StateSpaceHybridRegressor(
         batch_size=32,
         patience=10,
         validation_fraction=0.2,
+        validation_split="tail",
         stride=1,
         physics_initial_state=True,
         encoder_epochs=50,
@@ -303,6 +329,7 @@ class StateSpaceHybridRegressor(
         self.hidden_layer_sizes = hidden_layer_sizes
         self.encoder_hidden_layer_sizes = encoder_hidden_layer_sizes
         self.correction_scale = correction_scale
+        self.correction_form = correction_form
         self.correction_states = correction_states
         self.corrected_states = corrected_states
         self.encoder_absolute = encoder_absolute
@@ -313,6 +340,7 @@ class StateSpaceHybridRegressor(
         self.batch_size = batch_size
         self.patience = patience
         self.validation_fraction = validation_fraction
+        self.validation_split = validation_split
         self.stride = stride
         self.physics_initial_state = physics_initial_state
         self.encoder_epochs = encoder_epochs
@@ -443,10 +471,10 @@ class StateSpaceHybridRegressor(
             scale[self._observed] = torch.as_tensor(self.step_scale_)[self._observed]
         return base + scale * z
 
-    def _advance(self, x, u, params):
+    def _correction(self, x, u):
+        """The correction network's output ``(n, n_states)`` at states ``x``."""
         import torch
 
-        x_next = self.physics_.step(x, u, params)
         idx = self._corr_idx
         xs = (x[:, idx] - torch.as_tensor(self.state_mean_[idx])) / torch.as_tensor(
             self.state_scale_[idx]
@@ -456,9 +484,26 @@ class StateSpaceHybridRegressor(
             feats.append(
                 (u - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
             )
-        corr = self.correction_(torch.cat(feats, dim=1))
+        return self.correction_(torch.cat(feats, dim=1))
+
+    def _advance(self, x, u, params):
+        import torch
+
+        physics = self.physics_
         scale = self.correction_scale * self.step_scale_ * self._corr_mask
-        return x_next + torch.as_tensor(scale) * corr
+        if self.correction_form == "rhs" and physics.time == "continuous":
+            # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
+            # physics: one sample of the correction moves each state by about
+            # c * S, as in the "step" form.
+            f = physics._rhs_fn(params, torch)
+            rate = torch.as_tensor(scale / float(physics.dt))
+
+            def corrected(z, v):
+                return f(z, v) + rate * self._correction(z, v)
+
+            return physics._step(x, u, corrected)
+        x_next = physics.step(x, u, params)
+        return x_next + torch.as_tensor(scale) * self._correction(x, u)
 
     def _rollout(self, Yw, Uw, U_future, params, prior=None):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
@@ -702,8 +747,15 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
 
         L = k + T
         train, valid = [], []
-        for u, y in zip(U_list, Y_list, strict=True):
-            n_valid = round(self.validation_fraction * len(y))
+        held = self._held_out_records(len(Y_list))
+        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
+            if i in held:
+                # The whole record, simulated from its first n_init samples.
+                valid.append((y, u))
+                continue
+            n_valid = 0
+            if self.validation_split == "tail":
+                n_valid = round(self.validation_fraction * len(y))
             cut = len(y) - n_valid if n_valid >= L else len(y)
             for s in range(0, cut - L + 1, stride):
                 train.append((y[s : s + L], u[s : s + L]))
@@ -725,6 +777,20 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 np.stack([b[:n_tail] for _, b in valid]),
             )
         return self._fit_windows(physics, Ytr, Utr, wv, k, n_outputs, n_inputs)
+
+    def _held_out_records(self, n_records):
+        """Indices of the records held out whole for early stopping."""
+        if self.validation_split != "records" or self.validation_fraction == 0:
+            return set()
+        n_held = max(1, round(self.validation_fraction * n_records))
+        if n_held >= n_records:
+            raise ValueError(
+                f"validation_split='records' holds out {n_held} of the "
+                f"{n_records} record(s) (validation_fraction="
+                f"{self.validation_fraction}), leaving none to train on; give more "
+                "records, lower validation_fraction or use validation_split='tail'."
+            )
+        return set(range(n_records - n_held, n_records))
 
     def _start_physics(self, physics, method, a, b):
         """Warm-start ``physics`` by ``method(a, b)``, or set it up at its params."""

@@ -1,7 +1,7 @@
 """StateSpaceHybridRegressor: contract, determinism, errors, transactions.
 
 The DC motor comparison with the physics alone and the windowed hybrids is
-benchmarks/bench_state_space_hybrid.py; the slow test runs it with a small budget.
+benchmarks/bench_state_space_hybrid.py; the slow test runs it.
 """
 
 import sys
@@ -135,6 +135,8 @@ def test_windows_fit_predict_and_simulate():
         ({"corrected_states": [3]}, r"corrected_states=\[3\]"),
         ({"hidden_layer_sizes": (0,)}, r"hidden_layer_sizes=\(0,\)"),
         ({"horizon": 500}, r"n_init \+ horizon = 3 \+ 500"),
+        ({"correction_form": "state"}, r"correction_form"),
+        ({"validation_split": "head"}, r"validation_split"),
     ],
 )
 def test_bad_settings_raise_naming_parameter_and_value(kwargs, match):
@@ -191,28 +193,123 @@ def test_interrupt_leaves_previous_model(monkeypatch):
 
 
 @pytest.mark.slow
-def test_dc_motor_state_space_hybrid_beats_the_windowed_models():
-    """The benchmark with a smaller budget (a few minutes on 2 cores).
+def test_dc_motor_state_space_hybrid_beats_physics_and_windowed_models():
+    """Issue 14: the state-space hybrid beats the three others in free run.
 
-    Not the issue's criterion: the hybrid does not beat its physics on the
-    held-out free runs (benchmarks/bench_state_space_hybrid.py: 0.0519 against
-    0.0447 rad); this checks what holds.
-
-    The hybrid starts from the physics and early stopping keeps the starting
-    model as a candidate, so it is not worse than the physics alone by more than
-    the validation tail's noise; the windowed models drift in free run.
+    The benchmark itself (benchmarks/bench_state_space_hybrid.py, seed 0, its full
+    budget: about 7 minutes on 2 cores): on the held-out records' free runs the
+    hybrid (horizon chosen on the training records' validation tails) has a
+    lower load-angle RMSE than the physics alone, the windowed hybrid trained
+    one step ahead and the network alone. With a much smaller budget (10 epochs,
+    4 records) the hybrid is not better than its physics; see the guide.
     """
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_state_space_hybrid import run
 
-    results = run(
-        n_train=4, n_test=2, length=600, horizons=(20,), max_epochs=10, verbose=False
-    )
+    results = run(verbose=False)
     hybrid = next(v for k, v in results.items() if k.startswith("state-space"))
     others = [v for k, v in results.items() if not k.startswith("state-space")]
-    # With this budget the hybrid does not beat its physics (see the guide):
-    # the claim checked is that it stays close to it and far below the windowed
-    # models, whose absolute-angle inputs drift out of range in free run.
-    assert hybrid <= 1.5 * results["physics"]
-    assert hybrid < min(v for k, v in results.items() if k.startswith(("wind", "net")))
+    assert len(others) == 3
     assert all(np.isfinite(others))
+    assert hybrid < min(others)
+
+
+def _zero_network_but_bias(module, bias):
+    import torch
+
+    with torch.no_grad():
+        for layer in module:
+            if isinstance(layer, torch.nn.Linear):
+                layer.weight.zero_()
+                layer.bias.zero_()
+        layer.bias.copy_(torch.as_tensor(bias))
+
+
+def test_rhs_correction_is_integrated_with_the_physics():
+    """correction_form="rhs" adds c * S / dt * net to dx/dt inside the RK4 steps."""
+    import torch
+
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, (3, 60, 1))
+    truth = StateSpaceModel(
+        oscillator,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        n_substeps=3,
+        fixed=("omega",),
+    ).fit_simulation(u, np.zeros((3, 60, 1)))
+    y = truth.simulate_from_state(u, np.zeros((3, 2)))
+    model = StateSpaceHybridRegressor(
+        truth,
+        n_init=4,
+        horizon=5,
+        max_epochs=1,
+        correction_form="rhs",
+        train_physics=False,
+        random_state=0,
+    ).fit_simulation(u, y)
+    bias = np.array([0.0, 0.7])
+    _zero_network_but_bias(model.correction_, bias)
+    rate = model.correction_scale * model.step_scale_ * bias / 0.1
+
+    def pushed(x, u, *, xp, omega):
+        return oscillator(x, u, xp=xp, omega=omega) + xp.asarray(rate)
+
+    reference = StateSpaceModel(
+        pushed,
+        {"omega": 2.0},
+        state_names=["p", "v"],
+        observed=["p"],
+        dt=0.1,
+        n_substeps=3,
+        fixed=("omega",),
+    ).fit_simulation(u, y)
+    x = rng.normal(size=(5, 2))
+    with torch.no_grad():
+        got = model._advance(
+            torch.as_tensor(x), torch.as_tensor(u[0, :5]), model._params_t
+        ).numpy()
+    np.testing.assert_allclose(got, reference.step(x, u[0, :5]), rtol=1e-12)
+    # The "step" form adds the same correction after the step instead.
+    model.set_params(correction_form="step")
+    with torch.no_grad():
+        after = model._advance(
+            torch.as_tensor(x), torch.as_tensor(u[0, :5]), model._params_t
+        ).numpy()
+    expected = (
+        truth.step(x, u[0, :5]) + model.correction_scale * model.step_scale_ * bias
+    )
+    np.testing.assert_allclose(after, expected, rtol=1e-12)
+    assert not np.allclose(got, after)
+
+
+def test_rhs_and_step_corrections_agree_on_discrete_physics():
+    u, y = _records()
+    a = _model(correction_form="rhs").fit_simulation(u, y).simulate(u, y[:, :3])
+    b = _model(correction_form="step").fit_simulation(u, y).simulate(u, y[:, :3])
+    np.testing.assert_array_equal(a, b)
+
+
+def test_validation_split_records_holds_out_whole_records(monkeypatch):
+    u, y = _records(n=4, length=80)
+    seen = {}
+    original = StateSpaceHybridRegressor._train
+
+    def spy(self, windows_train, windows_valid, *args):
+        seen["train"], seen["valid"] = windows_train[0], windows_valid[0]
+        return original(self, windows_train, windows_valid, *args)
+
+    monkeypatch.setattr(StateSpaceHybridRegressor, "_train", spy)
+    _model(validation_split="records", validation_fraction=0.25).fit_simulation(u, y)
+    np.testing.assert_array_equal(seen["valid"], y[3:])  # the last record, whole
+    assert len(seen["train"]) == 3 * (80 - (3 + 5) + 1)  # the others, no tail
+    _model(validation_fraction=0.25).fit_simulation(u, y)
+    np.testing.assert_array_equal(seen["valid"], y[:, 60:])  # "tail": every tail
+
+
+def test_validation_split_records_needs_a_record_to_train_on():
+    u, y = _records(n=1)
+    with pytest.raises(ValueError, match=r"validation_split='records'.*1 record"):
+        _model(validation_split="records").fit_simulation(u, y)

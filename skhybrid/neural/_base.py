@@ -48,7 +48,21 @@ TRAINING_PARAMETERS_DOC = """\
         Lags of the Ljung-Box term; must be smaller than ``batch_size``.
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    lr : float, default=0.01
+    ljung_box_segment_length : int or None, default=None
+        With a Ljung-Box objective, each training batch is made of segments of
+        this many consecutive rows drawn from random places of the data
+        (``batch_size // ljung_box_segment_length`` of them), and the
+        autocovariances are computed within each segment and pooled (see
+        :class:`~skhybrid.neural._callbacks.BatchIterator`); must be larger than
+        ``ljung_box_lags``. None trains on contiguous blocks of ``batch_size``
+        rows. Ignored by other objectives.
+    ljung_box_scaling : {"target", "per_output"}, default="target"
+        Scale of each output's autocovariance norm in the Ljung-Box term.
+        ``"target"``: the scale of the standardised targets, the MSE's (see
+        ``target_scaling``). ``"per_output"``: divided by the variance of that
+        output's standardised training target, fixed at the start of ``fit``,
+        so that every output's whiteness counts alike however large its
+        residual., default=0.01
         Initial learning rate of Adam.
     max_epochs : int, default=200
         Most passes over the training rows.
@@ -291,6 +305,13 @@ def check_time_ordered_rows(est, n_samples):
     if not needs_time_order(est.objective):
         return 2
     min_rows = est.ljung_box_lags + 1
+    segment = getattr(est, "ljung_box_segment_length", None)
+    if segment is not None and segment <= est.ljung_box_lags:
+        raise ValueError(
+            f"ljung_box_segment_length={segment} must be larger than "
+            f"ljung_box_lags={est.ljung_box_lags}: objective={est.objective!r} "
+            "computes autocovariances within each segment."
+        )
     if est.batch_size is not None and est.batch_size <= est.ljung_box_lags:
         raise ValueError(
             f"batch_size={est.batch_size} must be larger than "
@@ -393,6 +414,8 @@ class BaseNeuralRegressor(
         "objective": [StrOptions(set(OBJECTIVES))],
         "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
         "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
+        "ljung_box_segment_length": [Interval(Integral, 2, None, closed="left"), None],
+        "ljung_box_scaling": [StrOptions({"target", "per_output"})],
         "lr": [Interval(Real, 0, None, closed="neither")],
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
         "batch_size": [Interval(Integral, 2, None, closed="left")],
@@ -415,6 +438,8 @@ class BaseNeuralRegressor(
         objective="mse",
         ljung_box_lags=20,
         ljung_box_weight=1.0,
+        ljung_box_segment_length=None,
+        ljung_box_scaling="target",
         lr=0.01,
         max_epochs=200,
         batch_size=512,
@@ -433,6 +458,8 @@ class BaseNeuralRegressor(
         self.objective = objective
         self.ljung_box_lags = ljung_box_lags
         self.ljung_box_weight = ljung_box_weight
+        self.ljung_box_segment_length = ljung_box_segment_length
+        self.ljung_box_scaling = ljung_box_scaling
         self.lr = lr
         self.max_epochs = max_epochs
         self.batch_size = batch_size
@@ -699,6 +726,12 @@ class BaseNeuralRegressor(
         callbacks = training_callbacks(self, monitor)
 
         criterion, criterion_kwargs = self._criterion()
+        segment = self.ljung_box_segment_length if time_ordered else None
+        lb_scale = None
+        if time_ordered and self.ljung_box_scaling == "per_output":
+            variance = yt.double().var(dim=0).cpu().numpy()
+            # An output without variance has nothing to whiten: leave it at 1.
+            lb_scale = np.where(variance > 0, variance, 1.0).tolist()
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
         with torch.random.fork_rng(devices=self._rng_devices()):
             torch.manual_seed(seed)
@@ -711,6 +744,8 @@ class BaseNeuralRegressor(
                 criterion__objective=self.objective,
                 criterion__lags=self.ljung_box_lags,
                 criterion__ljung_box_weight=self.ljung_box_weight,
+                criterion__segment_length=segment,
+                criterion__ljung_box_scale=lb_scale,
                 **{f"criterion__{k}": v for k, v in criterion_kwargs.items()},
                 optimizer=torch.optim.Adam,
                 lr=self.lr,
@@ -720,6 +755,7 @@ class BaseNeuralRegressor(
                 iterator_train=BatchIterator,
                 iterator_train__shuffle=True,
                 iterator_train__contiguous=time_ordered,
+                iterator_train__segment_length=segment,
                 iterator_valid=BatchIterator,
                 iterator_valid__contiguous=time_ordered,
                 iterator_valid__batch_size=valid_batch_size,

@@ -34,13 +34,42 @@ class BatchIterator:
         ``max(1, n // batch_size)`` contiguous blocks of at least ``batch_size``
         rows, kept in time order inside each block; ``shuffle`` shuffles the order
         of the blocks only. Objectives with a Ljung-Box term use blocks.
+    segment_length : int or None, default=None
+        With ``contiguous`` and ``shuffle``: each pass cuts the rows into
+        segments of exactly ``segment_length`` consecutive rows (from a random
+        offset, so that the cuts move from pass to pass; the fewer than
+        ``segment_length`` rows left at the ends sit out that pass), shuffles the
+        segments and spreads them evenly over ``max(1, n_segments //
+        max(1, batch_size // segment_length))`` batches. A batch is then
+        several stretches of time from random places of the data, each kept in
+        order: its gradient sees as many parts of the data as a shuffled batch's
+        more nearly, and a Ljung-Box objective computes autocovariances within
+        each segment. None (or fewer rows than a segment) cuts blocks as above.
     """
 
-    def __init__(self, dataset, batch_size, shuffle=False, contiguous=False):
+    def __init__(
+        self,
+        dataset,
+        batch_size,
+        shuffle=False,
+        contiguous=False,
+        segment_length=None,
+    ):
         self.dataset = dataset
         self.batch_size = batch_size
         self.shuffle = shuffle
         self.contiguous = contiguous
+        self.segment_length = segment_length
+
+    def _segmented(self, n):
+        m = self.segment_length
+        return bool(self.contiguous and self.shuffle and m and n >= 2 * m)
+
+    def _segment_batches(self, n):
+        m = self.segment_length
+        n_segments = n // m
+        per_batch = max(1, self.batch_size // m)
+        return max(1, n_segments // per_batch), n_segments
 
     def _bounds(self, n):
         if self.contiguous:
@@ -53,11 +82,17 @@ class BatchIterator:
         return list(pairwise(edges))
 
     def __len__(self):
-        return len(self._bounds(len(self.dataset.X)))
+        n = len(self.dataset.X)
+        if self._segmented(n):
+            return self._segment_batches(n)[0]
+        return len(self._bounds(n))
 
     def __iter__(self):
         X, y = self.dataset.X, self.dataset.y
         n = len(X)
+        if self._segmented(n):
+            yield from self._iter_segments(X, y, n)
+            return
         bounds = self._bounds(n)
         if self.shuffle and not self.contiguous:
             perm = torch.randperm(n, device=X.device)
@@ -70,6 +105,19 @@ class BatchIterator:
             bounds = [bounds[i] for i in order]
         for start, stop in bounds:
             yield X[start:stop], y[start:stop]
+
+    def _iter_segments(self, X, y, n):
+        m = self.segment_length
+        n_batches, n_segments = self._segment_batches(n)
+        spare = n - n_segments * m
+        offset = int(torch.randint(spare + 1, ())) if spare else 0
+        order = torch.randperm(n_segments)
+        rows = torch.arange(m)
+        edges = [(i * n_segments) // n_batches for i in range(n_batches + 1)]
+        for start, stop in pairwise(edges):
+            starts = offset + order[start:stop] * m
+            idx = (starts[:, None] + rows[None, :]).reshape(-1).to(X.device)
+            yield X[idx], y[idx]
 
 
 #: A loss this many times its first epoch's value (or 1, whichever is larger)

@@ -157,20 +157,49 @@ class ObjectiveLoss(nn.Module):
         Ljung-Box lags.
     ljung_box_weight : float
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    segment_length : int or None, default=None
+        In training mode, a batch whose rows are a multiple of it (more than
+        one) holds consecutive segments of this many rows, each a series of its
+        own (see :class:`~skhybrid.neural._callbacks.BatchIterator`): the
+        autocovariances are pooled over the segments. In eval mode, and when
+        None, the batch is one series.
+    ljung_box_scale : sequence of float or None, default=None
+        Divisor of each output's autocovariance norm (see
+        :func:`~skhybrid.losses.objective_value`).
     """
 
-    def __init__(self, objective="mse", lags=20, ljung_box_weight=1.0):
+    def __init__(
+        self,
+        objective="mse",
+        lags=20,
+        ljung_box_weight=1.0,
+        segment_length=None,
+        ljung_box_scale=None,
+    ):
         super().__init__()
         self.objective = objective
         self.lags = lags
         self.ljung_box_weight = ljung_box_weight
+        self.segment_length = segment_length
+        self.ljung_box_scale = ljung_box_scale
+
+    def _segments(self, n):
+        m = self.segment_length
+        if self.training and m and n > m and n % m == 0:
+            return n // m
+        return 1
 
     def forward(self, y_pred, y_true):
+        scale = self.ljung_box_scale
+        if scale is not None:
+            scale = torch.as_tensor(scale, dtype=y_pred.dtype, device=y_pred.device)
         return objective_value(
             y_true - y_pred,
             self.objective,
             lags=self.lags,
             ljung_box_weight=self.ljung_box_weight,
+            segments=self._segments(y_true.shape[0]),
+            ljung_box_scale=scale,
         )
 
 
@@ -181,9 +210,17 @@ class CyclicLoss(ObjectiveLoss):
     """
 
     def __init__(
-        self, objective="mse", lags=20, ljung_box_weight=1.0, cycle_weight=1.0
+        self,
+        objective="mse",
+        lags=20,
+        ljung_box_weight=1.0,
+        segment_length=None,
+        ljung_box_scale=None,
+        cycle_weight=1.0,
     ):
-        super().__init__(objective, lags, ljung_box_weight)
+        super().__init__(
+            objective, lags, ljung_box_weight, segment_length, ljung_box_scale
+        )
         self.cycle_weight = cycle_weight
 
     def forward(self, y_pred, y_true):

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scipy.stats import chi2
 from sklearn.base import clone
 
 from skhybrid.experiments import ExperimentSettings
@@ -65,7 +66,7 @@ def variant_params(spec):
 def stage_data(booster, X, Y):
     """The second stage's input and target, given the fitted physics stage."""
     windows = booster._windows(X)
-    (_, physics), = booster.stages_
+    ((_, physics),) = booster.stages_
     preds = [booster._stage_predict(physics, W) for W in windows]
     Z = booster._augment(windows, preds, len(windows) - 1)
     return Z, Y - preds[-1], preds[-1]
@@ -157,6 +158,14 @@ def main():
             )
         orc = np.array(out["test"]["rmse"]) / np.array(oracle["rmse"])
         line.append("test/oracle " + " ".join(f"{v:.2f}" for v in orc))
+        pvalue = chi2.sf(out["test"]["q"], s.lags)
+        noise = np.array(out["test"]["std"]) / system.noise
+        line.append(
+            "test p "
+            + " ".join(f"{v:.2g}" for v in pvalue)
+            + " std/noise "
+            + " ".join(f"{v:.3f}" for v in noise)
+        )
         print(" | ".join(line))
 
 

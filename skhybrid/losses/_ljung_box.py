@@ -500,11 +500,12 @@ def autocovariance_norm(residuals, lags=20, *, segments=1):
     True
     """
     xp = get_namespace(residuals)
-    if isinstance(segments, bool) or not isinstance(segments, Integral):
-        raise ValueError(
-            f"segments must be a positive integer; got segments={segments!r}."
-        )
-    if segments < 1 or residuals.shape[0] % segments:
+    if (
+        isinstance(segments, bool)
+        or not isinstance(segments, Integral)
+        or segments < 1
+        or residuals.shape[0] % segments
+    ):
         raise ValueError(
             f"segments must be a positive divisor of the number of samples, "
             f"n_samples={residuals.shape[0]}; got segments={segments!r}."

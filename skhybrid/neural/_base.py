@@ -729,7 +729,7 @@ class BaseNeuralRegressor(
         segment = self.ljung_box_segment_length if time_ordered else None
         lb_scale = None
         if time_ordered and self.ljung_box_scaling == "per_output":
-            variance = yt.double().var(dim=0).cpu().numpy()
+            variance = yt.double().var(dim=0, unbiased=False).cpu().numpy()
             # An output without variance has nothing to whiten: leave it at 1.
             lb_scale = np.where(variance > 0, variance, 1.0).tolist()
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)

@@ -173,6 +173,84 @@ def test_batch_iterator_blocks_and_tails():
     assert torch.equal(torch.sort(seen[:, 0]).values, torch.arange(103.0))
 
 
+def test_batch_iterator_segments():
+    from skorch.dataset import Dataset
+
+    n, m = 1030, 50
+    ds = Dataset(torch.arange(float(n))[:, None], torch.zeros(n, 1))
+    it = BatchIterator(
+        ds, batch_size=200, shuffle=True, contiguous=True, segment_length=m
+    )
+    # 20 segments of 50 rows (30 rows sit out), 4 per batch: 5 batches
+    assert len(it) == 5
+    torch.manual_seed(0)
+    epochs = [[xb[:, 0] for xb, _ in it] for _ in range(3)]
+    starts = set()
+    for batches in epochs:
+        assert [len(b) for b in batches] == [200] * 5
+        rows = torch.cat(batches)
+        assert len(torch.unique(rows)) == len(rows) == 1000  # no row twice
+        for b in batches:
+            segs = b.reshape(4, m)
+            assert torch.all(torch.diff(segs, dim=1) == 1)  # in order inside
+            starts.update(segs[:, 0].tolist())
+    assert len({int(s) % m for s in starts}) > 1  # the cuts move between passes
+    # not shuffled (validation), or too few rows: blocks as before
+    plain = BatchIterator(ds, batch_size=200, contiguous=True, segment_length=m)
+    assert [len(xb) for xb, _ in plain] == [206, 206, 206, 206, 206]
+    small = Dataset(torch.arange(60.0)[:, None], torch.zeros(60, 1))
+    short = BatchIterator(small, 200, shuffle=True, contiguous=True, segment_length=m)
+    assert [len(xb) for xb, _ in short] == [60]
+
+
+def test_segmented_ljung_box_training(data):
+    X, y = data
+    X = X.copy()
+    X[:, 0] = np.arange(200.0)
+    rec = Recorder()
+    model = _tiny(
+        DenseRegressor,
+        objective="mse+ljung_box",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        ljung_box_scaling="per_output",
+        batch_size=32,
+        validation_fraction=0.2,
+        max_epochs=2,
+        random_state=0,
+        callbacks=[rec],
+    ).fit(X, y)
+    # 160 training rows: 20 segments of 8, 4 per batch
+    assert [len(b) for b in rec.batches] == [32] * 10
+    for b in rec.batches:
+        assert np.all(np.diff(b[:, 0].numpy().reshape(4, 8), axis=1) > 0)
+    starts = {float(b[i, 0]) for b in rec.batches[:5] for i in range(0, 32, 8)}
+    assert starts != {float(b[0, 0]) for b in rec.batches[:5]}
+    criterion = model.net_.criterion_
+    assert criterion.segment_length == 8
+    scale = criterion.ljung_box_scale
+    stop = 160
+    target = (y[:stop] - model.y_mean_[0]) / model.y_scale_[0]
+    assert_allclose(scale, [np.var(target)], rtol=1e-5)
+    # eval mode (the validation stretch) treats the batch as one series
+    r = torch.randn(64, 1)
+    criterion.eval()
+    from skhybrid.losses import objective_value
+
+    kw = dict(lags=5, ljung_box_weight=1.0, ljung_box_scale=scale)
+    assert_allclose(
+        float(criterion(torch.zeros(64, 1), r)),
+        float(objective_value(r, "mse+ljung_box", **kw)),
+        rtol=1e-6,
+    )
+    criterion.train()
+    assert_allclose(
+        float(criterion(torch.zeros(64, 1), r)),
+        float(objective_value(r, "mse+ljung_box", segments=8, **kw)),
+        rtol=1e-6,
+    )
+
+
 def test_keyboard_interrupt_keeps_best_weights(data):
     X, y = data
     params = dict(random_state=3, lr=0.003, validation_fraction=0.2)
@@ -234,6 +312,12 @@ def test_verbose(data, capsys):
         (dict(hidden_layer_sizes=(8, 0)), "hidden_layer_sizes"),
         (dict(hidden_layer_sizes=(8, 2.5)), "hidden_layer_sizes"),
         (dict(objective="ljung_box", ljung_box_lags=40), "batch_size=32"),
+        (
+            dict(objective="ljung_box", ljung_box_lags=5, ljung_box_segment_length=5),
+            "ljung_box_segment_length=5",
+        ),
+        (dict(ljung_box_segment_length=1), "ljung_box_segment_length"),
+        (dict(ljung_box_scaling="each"), "ljung_box_scaling"),
         (dict(objective="l2"), "objective"),
         (dict(lr=-1.0), "lr"),
         (dict(validation_fraction=1.0), "validation_fraction"),

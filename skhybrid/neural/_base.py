@@ -746,6 +746,9 @@ class BaseNeuralRegressor(
                 criterion__ljung_box_weight=self.ljung_box_weight,
                 criterion__segment_length=segment,
                 criterion__ljung_box_scale=lb_scale,
+                criterion__segment_count=(
+                    max(1, self.batch_size // segment) if segment else None
+                ),
                 **{f"criterion__{k}": v for k, v in criterion_kwargs.items()},
                 optimizer=torch.optim.Adam,
                 lr=self.lr,
@@ -754,7 +757,7 @@ class BaseNeuralRegressor(
                 train_split=train_split,
                 iterator_train=BatchIterator,
                 iterator_train__shuffle=True,
-                iterator_train__contiguous=time_ordered,
+                iterator_train__contiguous=time_ordered and not segment,
                 iterator_train__segment_length=segment,
                 iterator_valid=BatchIterator,
                 iterator_valid__contiguous=time_ordered,

@@ -35,16 +35,18 @@ class BatchIterator:
         rows, kept in time order inside each block; ``shuffle`` shuffles the order
         of the blocks only. Objectives with a Ljung-Box term use blocks.
     segment_length : int or None, default=None
-        With ``contiguous`` and ``shuffle``: each pass cuts the rows into
-        segments of exactly ``segment_length`` consecutive rows (from a random
-        offset, so that the cuts move from pass to pass; the fewer than
-        ``segment_length`` rows left at the ends sit out that pass), shuffles the
-        segments and spreads them evenly over ``max(1, n_segments //
-        max(1, batch_size // segment_length))`` batches. A batch is then
-        several stretches of time from random places of the data, each kept in
-        order: its gradient sees as many parts of the data as a shuffled batch's
-        more nearly, and a Ljung-Box objective computes autocovariances within
-        each segment. None (or fewer rows than a segment) cuts blocks as above.
+        With ``shuffle`` (training): each batch of shuffled rows (as with
+        ``contiguous=False``, whatever ``contiguous`` says) is followed by
+        ``max(1, batch_size // segment_length)`` segments of ``segment_length``
+        consecutive rows, each kept in time order, drawn from random places:
+        each pass cuts the rows into segments from a random offset (so the cuts
+        move from pass to pass) and deals them out in a random order, reusing
+        them when the pass needs more. The shuffled rows give the batch the
+        diversity of an MSE batch; the segments give a Ljung-Box objective time
+        order (:class:`~skhybrid.neural._modules.ObjectiveLoss` with
+        ``segment_count`` computes the MSE on all rows and the autocovariances
+        within each segment). Ignored without ``shuffle`` or with fewer than
+        ``2 * segment_length`` rows.
     """
 
     def __init__(
@@ -63,16 +65,10 @@ class BatchIterator:
 
     def _segmented(self, n):
         m = self.segment_length
-        return bool(self.contiguous and self.shuffle and m and n >= 2 * m)
+        return bool(self.shuffle and m and n >= 2 * m)
 
-    def _segment_batches(self, n):
-        m = self.segment_length
-        n_segments = n // m
-        per_batch = max(1, self.batch_size // m)
-        return max(1, n_segments // per_batch), n_segments
-
-    def _bounds(self, n):
-        if self.contiguous:
+    def _bounds(self, n, contiguous):
+        if contiguous:
             n_blocks = max(1, n // self.batch_size)
         else:
             n_blocks = max(1, math.ceil(n / self.batch_size))
@@ -83,17 +79,15 @@ class BatchIterator:
 
     def __len__(self):
         n = len(self.dataset.X)
-        if self._segmented(n):
-            return self._segment_batches(n)[0]
-        return len(self._bounds(n))
+        return len(self._bounds(n, self.contiguous and not self._segmented(n)))
 
     def __iter__(self):
         X, y = self.dataset.X, self.dataset.y
         n = len(X)
         if self._segmented(n):
-            yield from self._iter_segments(X, y, n)
+            yield from self._iter_with_segments(X, y, n)
             return
-        bounds = self._bounds(n)
+        bounds = self._bounds(n, self.contiguous)
         if self.shuffle and not self.contiguous:
             perm = torch.randperm(n, device=X.device)
             for start, stop in bounds:
@@ -106,17 +100,23 @@ class BatchIterator:
         for start, stop in bounds:
             yield X[start:stop], y[start:stop]
 
-    def _iter_segments(self, X, y, n):
+    def _iter_with_segments(self, X, y, n):
         m = self.segment_length
-        n_batches, n_segments = self._segment_batches(n)
+        bounds = self._bounds(n, contiguous=False)
+        per_batch = max(1, self.batch_size // m)
+        n_segments = n // m
         spare = n - n_segments * m
         offset = int(torch.randint(spare + 1, ())) if spare else 0
-        order = torch.randperm(n_segments)
+        need = len(bounds) * per_batch
+        order = torch.cat(
+            [torch.randperm(n_segments) for _ in range(-(-need // n_segments))]
+        )[:need]
         rows = torch.arange(m)
-        edges = [(i * n_segments) // n_batches for i in range(n_batches + 1)]
-        for start, stop in pairwise(edges):
-            starts = offset + order[start:stop] * m
-            idx = (starts[:, None] + rows[None, :]).reshape(-1).to(X.device)
+        perm = torch.randperm(n, device=X.device)
+        for i, (start, stop) in enumerate(bounds):
+            starts = offset + order[i * per_batch : (i + 1) * per_batch] * m
+            segments = (starts[:, None] + rows[None, :]).reshape(-1).to(X.device)
+            idx = torch.cat([perm[start:stop], segments])
             yield X[idx], y[idx]
 
 

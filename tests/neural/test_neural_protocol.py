@@ -181,29 +181,36 @@ def test_batch_iterator_segments():
     it = BatchIterator(
         ds, batch_size=200, shuffle=True, contiguous=True, segment_length=m
     )
-    # 20 segments of 50 rows (30 rows sit out), 4 per batch: 5 batches
-    assert len(it) == 5
+    # ceil(1030 / 200) = 6 batches of shuffled rows, each followed by 4 segments
+    assert len(it) == 6
     torch.manual_seed(0)
-    epochs = [[xb[:, 0] for xb, _ in it] for _ in range(3)]
-    starts = set()
-    for batches in epochs:
-        assert [len(b) for b in batches] == [200] * 5
-        rows = torch.cat(batches)
-        assert len(torch.unique(rows)) == len(rows) == 1000  # no row twice
-        for b in batches:
-            segs = b.reshape(4, m)
-            assert torch.all(torch.diff(segs, dim=1) == 1)  # in order inside
-            starts.update(segs[:, 0].tolist())
-    assert len({int(s) % m for s in starts}) > 1  # the cuts move between passes
+    offsets = set()
+    for _ in range(3):
+        batches = [xb[:, 0] for xb, _ in it]
+        shuffled = torch.cat([b[: len(b) - 4 * m] for b in batches])
+        # every row once among the shuffled rows, in random order
+        assert torch.equal(torch.sort(shuffled).values, torch.arange(float(n)))
+        assert not torch.all(torch.diff(shuffled) == 1)
+        segments = torch.stack([b[len(b) - 4 * m :].reshape(4, m) for b in batches])
+        assert torch.all(torch.diff(segments, dim=2) == 1)  # in order inside
+        starts = segments[:, :, 0].reshape(-1)
+        # 24 segments from the 20 of the pass: all 20 once before any again
+        assert len(torch.unique(starts[:20])) == 20
+        assert len(torch.unique(starts)) == 20
+        offsets.update((starts % m).tolist())
+        assert len({float(v) for v in starts % m}) == 1  # one cut per pass
+    assert len(offsets) > 1  # the cuts move between passes
     # not shuffled (validation), or too few rows: blocks as before
     plain = BatchIterator(ds, batch_size=200, contiguous=True, segment_length=m)
-    assert [len(xb) for xb, _ in plain] == [206, 206, 206, 206, 206]
+    assert [len(xb) for xb, _ in plain] == [206] * 5
     small = Dataset(torch.arange(60.0)[:, None], torch.zeros(60, 1))
     short = BatchIterator(small, 200, shuffle=True, contiguous=True, segment_length=m)
     assert [len(xb) for xb, _ in short] == [60]
 
 
 def test_segmented_ljung_box_training(data):
+    from skhybrid.losses import mse, objective_value
+
     X, y = data
     X = X.copy()
     X[:, 0] = np.arange(200.0)
@@ -220,35 +227,40 @@ def test_segmented_ljung_box_training(data):
         random_state=0,
         callbacks=[rec],
     ).fit(X, y)
-    # 160 training rows: 20 segments of 8, 4 per batch
-    assert [len(b) for b in rec.batches] == [32] * 10
+    # 160 training rows: 5 batches of 32 shuffled rows and 4 segments of 8
+    assert [len(b) for b in rec.batches] == [64] * 10
     for b in rec.batches:
-        assert np.all(np.diff(b[:, 0].numpy().reshape(4, 8), axis=1) > 0)
-    starts = {float(b[i, 0]) for b in rec.batches[:5] for i in range(0, 32, 8)}
-    assert starts != {float(b[0, 0]) for b in rec.batches[:5]}
+        # the rows are standardised: consecutive rows differ by one step
+        steps = np.diff(b[32:, 0].numpy().reshape(4, 8), axis=1)
+        assert np.allclose(steps, steps[0, 0], rtol=1e-4) and steps[0, 0] > 0
+        assert not np.all(np.diff(b[:32, 0].numpy()) > 0)
     criterion = model.net_.criterion_
-    assert criterion.segment_length == 8
+    assert (criterion.segment_length, criterion.segment_count) == (8, 4)
     scale = criterion.ljung_box_scale
-    stop = 160
-    target = (y[:stop] - model.y_mean_[0]) / model.y_scale_[0]
+    target = (y[:160] - model.y_mean_[0]) / model.y_scale_[0]
     assert_allclose(scale, [np.var(target)], rtol=1e-5)
-    # eval mode (the validation stretch) treats the batch as one series
-    r = torch.randn(64, 1)
-    criterion.eval()
-    from skhybrid.losses import objective_value
-
-    kw = dict(lags=5, ljung_box_weight=1.0, ljung_box_scale=scale)
-    assert_allclose(
-        float(criterion(torch.zeros(64, 1), r)),
-        float(objective_value(r, "mse+ljung_box", **kw)),
-        rtol=1e-6,
-    )
+    r = torch.randn(64, 1, dtype=torch.float64)
+    zero = torch.zeros(64, 1, dtype=torch.float64)
+    kw = dict(lags=5, ljung_box_scale=scale)
+    # training: the MSE over all rows, the Ljung-Box term over the 4 segments
     criterion.train()
     assert_allclose(
-        float(criterion(torch.zeros(64, 1), r)),
-        float(objective_value(r, "mse+ljung_box", segments=8, **kw)),
-        rtol=1e-6,
+        float(criterion(zero, r)),
+        float(mse(r) + objective_value(r[32:], "ljung_box", segments=4, **kw)),
+        rtol=1e-10,
     )
+    # eval mode (the validation stretch) treats the batch as one series
+    criterion.eval()
+    assert_allclose(
+        float(criterion(zero, r)),
+        float(objective_value(r, "mse+ljung_box", **kw)),
+        rtol=1e-10,
+    )
+    # the shuffled rows never enter the Ljung-Box term
+    criterion.train()
+    shuffled = r.clone()
+    shuffled[:32] = shuffled[torch.randperm(32)]
+    assert_allclose(float(criterion(zero, shuffled)), float(criterion(zero, r)))
 
 
 def test_keyboard_interrupt_keeps_best_weights(data):

@@ -135,6 +135,10 @@ def main():
             "fit_s": elapsed,
             "epochs": stage.n_epochs_,
             "best_epoch": stage.best_epoch_,
+            "history": {
+                key: [row.get(key) for row in stage.history_]
+                for key in ("train_loss", "valid_loss", "event_lr")
+            },
             "val": scores(target[val_rows], pred_val, s.lags),
             "test": scores(test.y, pred_test, s.lags),
         }

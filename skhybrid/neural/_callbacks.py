@@ -44,9 +44,9 @@ class BatchIterator:
         them when the pass needs more. The shuffled rows give the batch the
         diversity of an MSE batch; the segments give a Ljung-Box objective time
         order (:class:`~skhybrid.neural._modules.ObjectiveLoss` with
-        ``segment_count`` computes the MSE on all rows and the autocovariances
-        within each segment). Ignored without ``shuffle`` or with fewer than
-        ``2 * segment_length`` rows.
+        ``segment_count`` computes the MSE on the shuffled rows and the
+        autocovariances within each segment). Ignored without ``shuffle`` or
+        with fewer than ``2 * segment_length`` rows.
     """
 
     def __init__(

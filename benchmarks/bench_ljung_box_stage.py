@@ -18,10 +18,13 @@ as JSON per system, seed and variant, so the MSE stage is trained once::
     python benchmarks/bench_ljung_box_stage.py dc-motor \\
         --variants mse "seg=128" "seg=128,scale=per_output"
 
-A variant is ``mse``, ``lb`` (the zoo's ``"mse+ljung_box"`` stage as it is) or
-comma-separated changes to ``lb``: ``seg=M`` (``ljung_box_segment_length``),
-``scale=per_output`` (``ljung_box_scaling``), ``w=W`` (``ljung_box_weight``),
-``lr=LR``.
+A variant is ``mse`` (the zoo's MSE stage), ``lb`` (the same network with
+``objective="mse+ljung_box"`` and the library's defaults: contiguous blocks of
+``batch_size`` rows, weight 1, the zoo's Ljung-Box stage before issue 12 was
+closed) or comma-separated changes to ``lb``: ``seg=M``
+(``ljung_box_segment_length``), ``scale=per_output`` (``ljung_box_scaling``),
+``w=W`` (``ljung_box_weight``), ``lr=LR``. The zoo's Ljung-Box stage is now
+``seg=32,w=0.1``.
 """
 
 import argparse

@@ -235,10 +235,16 @@ class CyclicLoss(ObjectiveLoss):
         ljung_box_weight=1.0,
         segment_length=None,
         ljung_box_scale=None,
+        segment_count=None,
         cycle_weight=1.0,
     ):
         super().__init__(
-            objective, lags, ljung_box_weight, segment_length, ljung_box_scale
+            objective,
+            lags,
+            ljung_box_weight,
+            segment_length,
+            ljung_box_scale,
+            segment_count,
         )
         self.cycle_weight = cycle_weight
 

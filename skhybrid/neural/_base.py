@@ -62,7 +62,8 @@ TRAINING_PARAMETERS_DOC = """\
         ``target_scaling``). ``"per_output"``: divided by the variance of that
         output's standardised training target, fixed at the start of ``fit``,
         so that every output's whiteness counts alike however large its
-        residual., default=0.01
+        residual.
+    lr : float, default=0.01
         Initial learning rate of Adam.
     max_epochs : int, default=200
         Most passes over the training rows.

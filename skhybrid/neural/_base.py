@@ -49,13 +49,15 @@ TRAINING_PARAMETERS_DOC = """\
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
     ljung_box_segment_length : int or None, default=None
-        With a Ljung-Box objective, each training batch is made of segments of
-        this many consecutive rows drawn from random places of the data
-        (``batch_size // ljung_box_segment_length`` of them), and the
-        autocovariances are computed within each segment and pooled (see
-        :class:`~skhybrid.neural._callbacks.BatchIterator`); must be larger than
-        ``ljung_box_lags``. None trains on contiguous blocks of ``batch_size``
-        rows. Ignored by other objectives.
+        With ``"ljung_box"`` or ``"mse+ljung_box"``, each training batch holds
+        ``batch_size`` shuffled rows, on which the MSE is computed, followed by
+        ``batch_size // ljung_box_segment_length`` segments of this many
+        consecutive rows drawn from random places, on which the Ljung-Box term
+        is computed (autocovariances within each segment, pooled; see
+        :class:`~skhybrid.neural._callbacks.BatchIterator`). Must be larger
+        than ``ljung_box_lags``. None trains on contiguous blocks of
+        ``batch_size`` rows, as ``"ljung_box_q"`` always does; other objectives
+        ignore it.
     ljung_box_scaling : {"target", "per_output"}, default="target"
         Scale of each output's autocovariance norm in the Ljung-Box term.
         ``"target"``: the scale of the standardised targets, the MSE's (see
@@ -396,8 +398,10 @@ class BaseNeuralRegressor(
     - with ``objective="mse"`` the rows are shuffled into mini-batches of
       ``batch_size``; an objective with a Ljung-Box term needs time order, so the
       rows are cut into contiguous blocks of at least ``batch_size`` rows, kept in
-      order inside each block (only the order of the blocks is shuffled), and the
-      validation loss is computed on the whole validation stretch at once.
+      order inside each block (only the order of the blocks is shuffled), or,
+      with ``ljung_box_segment_length``, a batch is shuffled rows for the MSE
+      plus segments in time order for the Ljung-Box term; the validation loss is
+      computed on the whole validation stretch at once.
 
     For joint training (``HybridEnsembleRegressor``) and other torch code, the
     public :meth:`make_module` returns the estimator's network as a fresh
@@ -727,7 +731,8 @@ class BaseNeuralRegressor(
         callbacks = training_callbacks(self, monitor)
 
         criterion, criterion_kwargs = self._criterion()
-        segment = self.ljung_box_segment_length if time_ordered else None
+        segmented = self.objective in ("ljung_box", "mse+ljung_box")
+        segment = self.ljung_box_segment_length if segmented else None
         lb_scale = None
         if time_ordered and self.ljung_box_scaling == "per_output":
             variance = yt.double().var(dim=0, unbiased=False).cpu().numpy()

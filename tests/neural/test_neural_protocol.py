@@ -396,3 +396,21 @@ def test_make_module_contract(cls):
 def test_make_module_checks_the_architecture():
     with pytest.raises(ValueError, match="n_steps"):
         RNNRegressor(n_steps=3).make_module(4, 1)
+
+
+def test_ljung_box_q_ignores_segments(data):
+    # The paper's Q cannot be pooled over segments: it keeps contiguous blocks.
+    X, y = data
+    rec = Recorder()
+    model = _tiny(
+        DenseRegressor,
+        objective="ljung_box_q",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        validation_fraction=0,
+        max_epochs=1,
+        random_state=0,
+        callbacks=[rec],
+    ).fit(X, y)
+    assert model.net_.criterion_.segment_count is None
+    assert sum(len(b) for b in rec.batches) == 200

@@ -158,12 +158,13 @@ def objective_residuals(
         Number of equal, consecutive segments the rows hold, each a series of its
         own: the autocovariances of the Ljung-Box term are summed within each
         segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
-        The MSE part does not depend on it.
+        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
     ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
         Positive divisors of each output's autocovariance norm ``T_j`` in the
         ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
         fixed scales, such as each output's target variance, that whiten every
-        output alike whatever its size. None divides by 1.
+        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
+        ignores it.
 
     Returns
     -------
@@ -222,12 +223,13 @@ def objective_value(
         Number of equal, consecutive segments the rows hold, each a series of its
         own: the autocovariances of the Ljung-Box term are summed within each
         segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
-        The MSE part does not depend on it.
+        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
     ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
         Positive divisors of each output's autocovariance norm ``T_j`` in the
         ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
         fixed scales, such as each output's target variance, that whiten every
-        output alike whatever its size. None divides by 1.
+        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
+        ignores it.
 
     Returns
     -------

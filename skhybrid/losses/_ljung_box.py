@@ -447,7 +447,7 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
     return xp.sum(per_output)
 
 
-def autocovariance_norm(residuals, lags=20):
+def autocovariance_norm(residuals, lags=20, *, segments=1):
     """Ljung-Box-weighted norm of the autocovariances, in the residuals' units squared.
 
     ``T = sqrt(sum_{k=1..L} (n + 2) / (n - k) * gamma_k ** 2)`` per output, with
@@ -468,7 +468,18 @@ def autocovariance_norm(residuals, lags=20):
     residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
         The series, in time order.
     lags : int, default=20
-        Number of lags ``L``; must be smaller than ``n_samples``.
+        Number of lags ``L``; must be smaller than ``n_samples`` (than the length
+        of a segment with ``segments > 1``).
+    segments : int, default=1
+        Number of equal, consecutive segments the rows hold, each a time-ordered
+        series of its own (a training batch drawn from several places of the
+        data). The lag products are summed within each segment only, never
+        across a boundary, and pooled: ``gamma_k = (1/n) sum_segments sum_t
+        x_t x_{t+k}``, weighted by ``(m + 2) / (m - k)`` for segments of ``m``
+        rows. ``n_samples`` must be a multiple of ``segments``. The pooled
+        autocovariances of ``x + e`` still have the expectation of those of
+        ``x`` for independent white noise ``e``, so the norm still cannot be
+        lowered by adding noise.
 
     Returns
     -------
@@ -489,14 +500,27 @@ def autocovariance_norm(residuals, lags=20):
     True
     """
     xp = get_namespace(residuals)
-    _check_series(residuals, lags, xp)
-    sums, scale = _scaled_lag_products(residuals, lags, xp, center=False)
-    n = residuals.shape[0]
+    if (
+        isinstance(segments, bool)
+        or not isinstance(segments, Integral)
+        or segments < 1
+        or residuals.shape[0] % segments
+    ):
+        raise ValueError(
+            f"segments must be a positive divisor of the number of samples, "
+            f"n_samples={residuals.shape[0]}; got segments={segments!r}."
+        )
+    if segments == 1:
+        _check_series(residuals, lags, xp)
+        sums, scale = _scaled_lag_products(residuals, lags, xp, center=False)
+        n = m = residuals.shape[0]
+    else:
+        sums, scale, n, m = _segment_lag_products(residuals, lags, segments, xp)
     acov = sums[1:, ...] / n
     k = xp.arange(1, lags + 1, dtype=residuals.dtype)
     if is_torch(xp):
         k = k.to(residuals.device)
-    weights = (n + 2.0) / (n - k)
+    weights = (m + 2.0) / (m - k)
     if residuals.ndim == 2:
         weights = weights[:, None]
     squared = xp.sum(weights * acov**2, axis=0)
@@ -507,3 +531,34 @@ def autocovariance_norm(residuals, lags=20):
         floor = floor.detach()
     norm = xp.sqrt(squared + floor + 1e-300)
     return norm * xp.reshape(scale, norm.shape) ** 2
+
+
+def _segment_lag_products(residuals, lags, segments, xp):
+    """Lag sums pooled over ``segments`` consecutive segments of the rows.
+
+    Returns ``(sums, scale, n, m)`` like :func:`_scaled_lag_products` (the lag sums
+    of the original series are ``sums * scale ** 2``), with ``n`` the rows and ``m``
+    the rows of a segment. Every column is first divided by its largest magnitude
+    over all rows, so the per-segment sums neither under- nor overflow.
+    """
+    n = residuals.shape[0]
+    m = n // segments
+    if residuals.ndim not in (1, 2):
+        _check_series(residuals, lags, xp)  # raises the common error
+    if isinstance(lags, bool) or not isinstance(lags, Integral) or lags < 1:
+        raise ValueError(f"lags must be a positive integer; got lags={lags!r}.")
+    if lags >= m:
+        raise ValueError(
+            f"lags must be smaller than the rows of a segment; got lags={lags} "
+            f"with n_samples={n} in segments={segments} of {m} rows."
+        )
+    scaled, scale = _scaled_by_max(residuals, xp)
+    tail = tuple(residuals.shape[1:])
+    # (segments, m, ...) -> (m, segments, ...): each segment a column of its own.
+    stacked = xp.reshape(scaled, (segments, m, *tail))
+    axes = (1, 0, *range(2, 2 + len(tail)))
+    sums, inner = _scaled_lag_products(
+        xp.permute_dims(stacked, axes), lags, xp, center=False
+    )
+    sums = xp.sum(sums * inner**2, axis=1)
+    return sums, xp.reshape(scale, (1, *tail)), n, m

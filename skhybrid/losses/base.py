@@ -118,7 +118,30 @@ def _as_2d(residuals):
     return residuals if residuals.ndim == 2 else residuals[:, None]
 
 
-def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0):
+def _scaled_norms(r, lags, segments, scale, xp):
+    """Each output's autocovariance norm, divided by ``scale`` when given."""
+    norms = autocovariance_norm(r, lags, segments=segments)
+    if scale is None:
+        return norms
+    scale = xp.asarray(scale, dtype=norms.dtype, device=getattr(norms, "device", None))
+    scale = xp.reshape(scale, (-1,))
+    if scale.shape[0] != norms.shape[0] or not bool(xp.all(scale > 0)):
+        raise ValueError(
+            f"ljung_box_scale must hold one positive value per output "
+            f"(n_outputs={norms.shape[0]}); got ljung_box_scale={scale!r}."
+        )
+    return norms / scale
+
+
+def objective_residuals(
+    residuals,
+    objective="mse",
+    *,
+    lags=20,
+    ljung_box_weight=1.0,
+    segments=1,
+    ljung_box_scale=None,
+):
     """Vector whose sum of squares equals :func:`objective_value`.
 
     Parameters
@@ -131,6 +154,17 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
         Ljung-Box lags ``L``.
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    segments : int, default=1
+        Number of equal, consecutive segments the rows hold, each a series of its
+        own: the autocovariances of the Ljung-Box term are summed within each
+        segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
+        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
+    ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
+        Positive divisors of each output's autocovariance norm ``T_j`` in the
+        ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
+        fixed scales, such as each output's target variance, that whiten every
+        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
+        ignores it.
 
     Returns
     -------
@@ -159,11 +193,20 @@ def objective_residuals(residuals, objective="mse", *, lags=20, ljung_box_weight
         parts.append(xp.reshape(weighted_autocorrelations(r, lags), (-1,)))
     elif objective in ("ljung_box", "mse+ljung_box"):
         weight = ljung_box_weight if objective == "mse+ljung_box" else 1.0
-        parts.append(xp.sqrt(weight * autocovariance_norm(r, lags) / r.shape[1]))
+        norms = _scaled_norms(r, lags, segments, ljung_box_scale, xp)
+        parts.append(xp.sqrt(weight * norms / r.shape[1]))
     return parts[0] if len(parts) == 1 else xp.concat(parts)
 
 
-def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0):
+def objective_value(
+    residuals,
+    objective="mse",
+    *,
+    lags=20,
+    ljung_box_weight=1.0,
+    segments=1,
+    ljung_box_scale=None,
+):
     """Value of a training objective on residuals (a 0-d array or tensor).
 
     Parameters
@@ -176,6 +219,17 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
         Ljung-Box lags ``L``.
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    segments : int, default=1
+        Number of equal, consecutive segments the rows hold, each a series of its
+        own: the autocovariances of the Ljung-Box term are summed within each
+        segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
+        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
+    ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
+        Positive divisors of each output's autocovariance norm ``T_j`` in the
+        ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
+        fixed scales, such as each output's target variance, that whiten every
+        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
+        ignores it.
 
     Returns
     -------
@@ -197,7 +251,7 @@ def objective_value(residuals, objective="mse", *, lags=20, ljung_box_weight=1.0
     if objective == "ljung_box_q":
         return ljung_box(r, lags)
     xp = get_namespace(residuals)
-    term = xp.mean(autocovariance_norm(r, lags))
+    term = xp.mean(_scaled_norms(r, lags, segments, ljung_box_scale, xp))
     if objective == "ljung_box":
         return term
     return mse(r) + ljung_box_weight * term

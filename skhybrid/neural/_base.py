@@ -48,6 +48,23 @@ TRAINING_PARAMETERS_DOC = """\
         Lags of the Ljung-Box term; must be smaller than ``batch_size``.
     ljung_box_weight : float, default=1.0
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    ljung_box_segment_length : int or None, default=None
+        With ``"ljung_box"`` or ``"mse+ljung_box"``, each training batch holds
+        ``batch_size`` shuffled rows, on which the MSE is computed, followed by
+        ``batch_size // ljung_box_segment_length`` segments of this many
+        consecutive rows drawn from random places, on which the Ljung-Box term
+        is computed (autocovariances within each segment, pooled; see
+        :class:`~skhybrid.neural._callbacks.BatchIterator`). Must be larger
+        than ``ljung_box_lags``. None trains on contiguous blocks of
+        ``batch_size`` rows, as ``"ljung_box_q"`` always does; other objectives
+        ignore it.
+    ljung_box_scaling : {"target", "per_output"}, default="target"
+        Scale of each output's autocovariance norm in the Ljung-Box term.
+        ``"target"``: the scale of the standardised targets, the MSE's (see
+        ``target_scaling``). ``"per_output"``: divided by the variance of that
+        output's standardised training target, fixed at the start of ``fit``,
+        so that every output's whiteness counts alike however large its
+        residual.
     lr : float, default=0.01
         Initial learning rate of Adam.
     max_epochs : int, default=200
@@ -291,6 +308,13 @@ def check_time_ordered_rows(est, n_samples):
     if not needs_time_order(est.objective):
         return 2
     min_rows = est.ljung_box_lags + 1
+    segment = getattr(est, "ljung_box_segment_length", None)
+    if segment is not None and segment <= est.ljung_box_lags:
+        raise ValueError(
+            f"ljung_box_segment_length={segment} must be larger than "
+            f"ljung_box_lags={est.ljung_box_lags}: objective={est.objective!r} "
+            "computes autocovariances within each segment."
+        )
     if est.batch_size is not None and est.batch_size <= est.ljung_box_lags:
         raise ValueError(
             f"batch_size={est.batch_size} must be larger than "
@@ -374,8 +398,10 @@ class BaseNeuralRegressor(
     - with ``objective="mse"`` the rows are shuffled into mini-batches of
       ``batch_size``; an objective with a Ljung-Box term needs time order, so the
       rows are cut into contiguous blocks of at least ``batch_size`` rows, kept in
-      order inside each block (only the order of the blocks is shuffled), and the
-      validation loss is computed on the whole validation stretch at once.
+      order inside each block (only the order of the blocks is shuffled), or,
+      with ``ljung_box_segment_length``, a batch is shuffled rows for the MSE
+      plus segments in time order for the Ljung-Box term; the validation loss is
+      computed on the whole validation stretch at once.
 
     For joint training (``HybridEnsembleRegressor``) and other torch code, the
     public :meth:`make_module` returns the estimator's network as a fresh
@@ -393,6 +419,8 @@ class BaseNeuralRegressor(
         "objective": [StrOptions(set(OBJECTIVES))],
         "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
         "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
+        "ljung_box_segment_length": [Interval(Integral, 2, None, closed="left"), None],
+        "ljung_box_scaling": [StrOptions({"target", "per_output"})],
         "lr": [Interval(Real, 0, None, closed="neither")],
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
         "batch_size": [Interval(Integral, 2, None, closed="left")],
@@ -415,6 +443,8 @@ class BaseNeuralRegressor(
         objective="mse",
         ljung_box_lags=20,
         ljung_box_weight=1.0,
+        ljung_box_segment_length=None,
+        ljung_box_scaling="target",
         lr=0.01,
         max_epochs=200,
         batch_size=512,
@@ -433,6 +463,8 @@ class BaseNeuralRegressor(
         self.objective = objective
         self.ljung_box_lags = ljung_box_lags
         self.ljung_box_weight = ljung_box_weight
+        self.ljung_box_segment_length = ljung_box_segment_length
+        self.ljung_box_scaling = ljung_box_scaling
         self.lr = lr
         self.max_epochs = max_epochs
         self.batch_size = batch_size
@@ -699,6 +731,13 @@ class BaseNeuralRegressor(
         callbacks = training_callbacks(self, monitor)
 
         criterion, criterion_kwargs = self._criterion()
+        segmented = self.objective in ("ljung_box", "mse+ljung_box")
+        segment = self.ljung_box_segment_length if segmented else None
+        lb_scale = None
+        if time_ordered and self.ljung_box_scaling == "per_output":
+            variance = yt.double().var(dim=0, unbiased=False).cpu().numpy()
+            # An output without variance has nothing to whiten: leave it at 1.
+            lb_scale = np.where(variance > 0, variance, 1.0).tolist()
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
         with torch.random.fork_rng(devices=self._rng_devices()):
             torch.manual_seed(seed)
@@ -711,6 +750,11 @@ class BaseNeuralRegressor(
                 criterion__objective=self.objective,
                 criterion__lags=self.ljung_box_lags,
                 criterion__ljung_box_weight=self.ljung_box_weight,
+                criterion__segment_length=segment,
+                criterion__ljung_box_scale=lb_scale,
+                criterion__segment_count=(
+                    max(1, self.batch_size // segment) if segment else None
+                ),
                 **{f"criterion__{k}": v for k, v in criterion_kwargs.items()},
                 optimizer=torch.optim.Adam,
                 lr=self.lr,
@@ -719,7 +763,8 @@ class BaseNeuralRegressor(
                 train_split=train_split,
                 iterator_train=BatchIterator,
                 iterator_train__shuffle=True,
-                iterator_train__contiguous=time_ordered,
+                iterator_train__contiguous=time_ordered and not segment,
+                iterator_train__segment_length=segment,
                 iterator_valid=BatchIterator,
                 iterator_valid__contiguous=time_ordered,
                 iterator_valid__batch_size=valid_batch_size,

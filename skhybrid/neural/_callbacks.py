@@ -34,16 +34,41 @@ class BatchIterator:
         ``max(1, n // batch_size)`` contiguous blocks of at least ``batch_size``
         rows, kept in time order inside each block; ``shuffle`` shuffles the order
         of the blocks only. Objectives with a Ljung-Box term use blocks.
+    segment_length : int or None, default=None
+        With ``shuffle`` (training): each batch of shuffled rows (as with
+        ``contiguous=False``, whatever ``contiguous`` says) is followed by
+        ``max(1, batch_size // segment_length)`` segments of ``segment_length``
+        consecutive rows, each kept in time order, drawn from random places:
+        each pass cuts the rows into segments from a random offset (so the cuts
+        move from pass to pass) and deals them out in a random order, reusing
+        them when the pass needs more. The shuffled rows give the batch the
+        diversity of an MSE batch; the segments give a Ljung-Box objective time
+        order (:class:`~skhybrid.neural._modules.ObjectiveLoss` with
+        ``segment_count`` computes the MSE on the shuffled rows and the
+        autocovariances within each segment). Ignored without ``shuffle`` or
+        with fewer than ``2 * segment_length`` rows.
     """
 
-    def __init__(self, dataset, batch_size, shuffle=False, contiguous=False):
+    def __init__(
+        self,
+        dataset,
+        batch_size,
+        shuffle=False,
+        contiguous=False,
+        segment_length=None,
+    ):
         self.dataset = dataset
         self.batch_size = batch_size
         self.shuffle = shuffle
         self.contiguous = contiguous
+        self.segment_length = segment_length
 
-    def _bounds(self, n):
-        if self.contiguous:
+    def _segmented(self, n):
+        m = self.segment_length
+        return bool(self.shuffle and m and n >= 2 * m)
+
+    def _bounds(self, n, contiguous):
+        if contiguous:
             n_blocks = max(1, n // self.batch_size)
         else:
             n_blocks = max(1, math.ceil(n / self.batch_size))
@@ -53,12 +78,16 @@ class BatchIterator:
         return list(pairwise(edges))
 
     def __len__(self):
-        return len(self._bounds(len(self.dataset.X)))
+        n = len(self.dataset.X)
+        return len(self._bounds(n, self.contiguous and not self._segmented(n)))
 
     def __iter__(self):
         X, y = self.dataset.X, self.dataset.y
         n = len(X)
-        bounds = self._bounds(n)
+        if self._segmented(n):
+            yield from self._iter_with_segments(X, y, n)
+            return
+        bounds = self._bounds(n, self.contiguous)
         if self.shuffle and not self.contiguous:
             perm = torch.randperm(n, device=X.device)
             for start, stop in bounds:
@@ -70,6 +99,25 @@ class BatchIterator:
             bounds = [bounds[i] for i in order]
         for start, stop in bounds:
             yield X[start:stop], y[start:stop]
+
+    def _iter_with_segments(self, X, y, n):
+        m = self.segment_length
+        bounds = self._bounds(n, contiguous=False)
+        per_batch = max(1, self.batch_size // m)
+        n_segments = n // m
+        spare = n - n_segments * m
+        offset = int(torch.randint(spare + 1, ())) if spare else 0
+        need = len(bounds) * per_batch
+        order = torch.cat(
+            [torch.randperm(n_segments) for _ in range(-(-need // n_segments))]
+        )[:need]
+        rows = torch.arange(m)
+        perm = torch.randperm(n, device=X.device)
+        for i, (start, stop) in enumerate(bounds):
+            starts = offset + order[i * per_batch : (i + 1) * per_batch] * m
+            segments = (starts[:, None] + rows[None, :]).reshape(-1).to(X.device)
+            idx = torch.cat([perm[start:stop], segments])
+            yield X[idx], y[idx]
 
 
 #: A loss this many times its first epoch's value (or 1, whichever is larger)

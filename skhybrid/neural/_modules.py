@@ -9,7 +9,7 @@ hybrid ensemble can train them jointly with the parameters of a domain model.
 import torch
 from torch import nn
 
-from skhybrid.losses import objective_value
+from skhybrid.losses import mse, objective_value
 
 __all__ = [
     "CycleTrainingModule",
@@ -147,7 +147,8 @@ class ObjectiveLoss(nn.Module):
     """A training objective of :mod:`skhybrid.losses` as a torch criterion.
 
     ``forward(y_pred, y_true)`` returns ``objective_value(y_true - y_pred, ...)``;
-    with a Ljung-Box term the rows of a batch must be in time order.
+    with a Ljung-Box term the rows of a batch must be in time order, or end in
+    segments that are (``segment_count``).
 
     Parameters
     ----------
@@ -157,20 +158,67 @@ class ObjectiveLoss(nn.Module):
         Ljung-Box lags.
     ljung_box_weight : float
         Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    segment_length : int or None, default=None
+        Rows of a segment (see ``segment_count``).
+    ljung_box_scale : sequence of float or None, default=None
+        Divisor of each output's autocovariance norm (see
+        :func:`~skhybrid.losses.objective_value`).
+    segment_count : int or None, default=None
+        In training mode, with ``segment_length``, a batch of more than
+        ``segment_count * segment_length`` rows ends in that many segments of
+        ``segment_length`` consecutive rows after shuffled rows (the batches of
+        :class:`~skhybrid.neural._callbacks.BatchIterator` with
+        ``segment_length``): the MSE is the mean over the shuffled rows, and
+        the Ljung-Box term is computed on the segments, with the
+        autocovariances pooled within them. In eval mode (the validation
+        stretch), and without segments, the batch is one series.
     """
 
-    def __init__(self, objective="mse", lags=20, ljung_box_weight=1.0):
+    def __init__(
+        self,
+        objective="mse",
+        lags=20,
+        ljung_box_weight=1.0,
+        segment_length=None,
+        ljung_box_scale=None,
+        segment_count=None,
+    ):
         super().__init__()
         self.objective = objective
         self.lags = lags
         self.ljung_box_weight = ljung_box_weight
+        self.segment_length = segment_length
+        self.ljung_box_scale = ljung_box_scale
+        self.segment_count = segment_count
 
     def forward(self, y_pred, y_true):
+        scale = self.ljung_box_scale
+        if scale is not None:
+            scale = torch.as_tensor(scale, dtype=y_pred.dtype, device=y_pred.device)
+        kwargs = {"lags": self.lags, "ljung_box_scale": scale}
+        k, m = self.segment_count, self.segment_length
+        residuals = y_true - y_pred
+        if (
+            self.training
+            and k
+            and m
+            and self.objective in ("ljung_box", "mse+ljung_box")
+            and residuals.shape[0] > k * m
+        ):
+            term = objective_value(
+                residuals[-k * m :], "ljung_box", segments=k, **kwargs
+            )
+            if self.objective == "ljung_box":
+                return term
+            # The MSE of the shuffled rows only: the segments' rows are few
+            # independent stretches, and half the batch's weight on them made
+            # the MSE's gradient noisier (measured, docs/losses.md).
+            return mse(residuals[: -k * m]) + self.ljung_box_weight * term
         return objective_value(
-            y_true - y_pred,
+            residuals,
             self.objective,
-            lags=self.lags,
             ljung_box_weight=self.ljung_box_weight,
+            **kwargs,
         )
 
 
@@ -181,9 +229,23 @@ class CyclicLoss(ObjectiveLoss):
     """
 
     def __init__(
-        self, objective="mse", lags=20, ljung_box_weight=1.0, cycle_weight=1.0
+        self,
+        objective="mse",
+        lags=20,
+        ljung_box_weight=1.0,
+        segment_length=None,
+        ljung_box_scale=None,
+        segment_count=None,
+        cycle_weight=1.0,
     ):
-        super().__init__(objective, lags, ljung_box_weight)
+        super().__init__(
+            objective,
+            lags,
+            ljung_box_weight,
+            segment_length,
+            ljung_box_scale,
+            segment_count,
+        )
         self.cycle_weight = cycle_weight
 
     def forward(self, y_pred, y_true):

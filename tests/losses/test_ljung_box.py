@@ -277,20 +277,26 @@ def _structured_residuals():
     }
 
 
+@pytest.mark.parametrize("segments", [1, 4])
 @pytest.mark.parametrize("objective", ["mse", "ljung_box", "mse+ljung_box"])
 @pytest.mark.parametrize("name", list(_structured_residuals()))
 @pytest.mark.parametrize("noise", [0.1, 1.0, 5.0])
-def test_adding_noise_never_lowers_the_objective(objective, name, noise):
+def test_adding_noise_never_lowers_the_objective(objective, name, noise, segments):
     # For any residual r and independent white noise e, E[J(r + e)] >= J(r): a
     # model cannot buy whiteness by making its predictions noisier. The
     # expectation is estimated over antithetic pairs (e, -e), which cancel the
     # cross terms' sampling noise; the test allows three standard errors of the
-    # Monte Carlo mean, no more.
+    # Monte Carlo mean, no more. It holds as well with the autocovariances
+    # pooled over segments (a training batch drawn from several places), and
+    # with a fixed scale per output.
     from skhybrid.losses import objective_value
 
     r = _structured_residuals()[name]
     rng = np.random.default_rng(0)
-    base = float(objective_value(r, objective, lags=20))
+    kw = {"lags": 20, "segments": segments}
+    if segments > 1 and r.ndim == 2:
+        kw["ljung_box_scale"] = r.var(axis=0)
+    base = float(objective_value(r, objective, **kw))
     scale = noise * r.std()
     pairs = []
     for _ in range(400):
@@ -298,8 +304,8 @@ def test_adding_noise_never_lowers_the_objective(objective, name, noise):
         pairs.append(
             0.5
             * (
-                float(objective_value(r + e, objective, lags=20))
-                + float(objective_value(r - e, objective, lags=20))
+                float(objective_value(r + e, objective, **kw))
+                + float(objective_value(r - e, objective, **kw))
             )
         )
     mean, se = np.mean(pairs), np.std(pairs) / np.sqrt(len(pairs))
@@ -353,3 +359,70 @@ def test_objective_residuals_match_values(objective):
     v = objective_residuals(r, objective, lags=10, ljung_box_weight=0.7)
     value = objective_value(r, objective, lags=10, ljung_box_weight=0.7)
     np.testing.assert_allclose((v**2).sum(), value, rtol=1e-10)
+
+
+def test_segments_pool_the_autocovariances_within_each_segment(rng):
+    from skhybrid.losses import autocovariance_norm
+
+    r = rng.standard_normal((600, 2))
+    segments, m, lags = 4, 150, 12
+    pooled = np.zeros((lags, 2))
+    for part in r.reshape(segments, m, 2):
+        for k in range(1, lags + 1):
+            pooled[k - 1] += (part[:-k] * part[k:]).sum(axis=0)
+    pooled /= 600
+    weights = (m + 2.0) / (m - np.arange(1, lags + 1))
+    expected = np.sqrt((weights[:, None] * pooled**2).sum(axis=0))
+    np.testing.assert_allclose(
+        autocovariance_norm(r, lags, segments=segments), expected, rtol=1e-10
+    )
+    np.testing.assert_allclose(
+        autocovariance_norm(r[:, 1], lags, segments=segments), expected[1], rtol=1e-10
+    )
+    # one segment is the plain norm; a lag product never crosses a boundary
+    np.testing.assert_allclose(
+        autocovariance_norm(r, lags, segments=1), autocovariance_norm(r, lags)
+    )
+    shuffled = r.reshape(segments, m, 2)[[2, 0, 3, 1]].reshape(600, 2)
+    np.testing.assert_allclose(
+        autocovariance_norm(shuffled, lags, segments=segments), expected, rtol=1e-10
+    )
+    assert not np.allclose(autocovariance_norm(shuffled, lags), expected)
+    t = torch.tensor(r, requires_grad=True)
+    assert torch.autograd.gradcheck(
+        lambda x: autocovariance_norm(x, 5, segments=3),
+        (t[:90].detach().requires_grad_(),),
+    )
+
+
+def test_segments_and_scales_are_checked(rng):
+    from skhybrid.losses import autocovariance_norm
+
+    r = rng.standard_normal((100, 2))
+    for bad in (0, 3, 2.0, True):
+        with pytest.raises(ValueError, match=f"segments={bad!r}"):
+            autocovariance_norm(r, 5, segments=bad)
+    with pytest.raises(ValueError, match="lags=30 with n_samples=100 in segments=4"):
+        autocovariance_norm(r, 30, segments=4)
+    for bad in ([1.0], [1.0, 0.0], [1.0, -2.0]):
+        with pytest.raises(ValueError, match="ljung_box_scale"):
+            objective_value(r, "mse+ljung_box", lags=5, ljung_box_scale=bad)
+
+
+def test_ljung_box_scale_divides_each_outputs_norm(rng):
+    from skhybrid.losses import autocovariance_norm, mse
+
+    r = rng.standard_normal((200, 2)) * [1.0, 10.0]
+    T = autocovariance_norm(r, 5)
+    scale = np.array([1.0, 100.0])
+    value = objective_value(r, "mse+ljung_box", lags=5, ljung_box_scale=scale)
+    np.testing.assert_allclose(value, mse(r) + np.mean(T / scale))
+    v = objective_residuals(r, "mse+ljung_box", lags=5, ljung_box_scale=scale)
+    np.testing.assert_allclose((v**2).sum(), value, rtol=1e-12)
+    # a scale per output makes the term invariant to each output's size
+    assert np.isclose(
+        objective_value(
+            r[:, :1] * [10.0], "ljung_box", lags=5, ljung_box_scale=[100.0]
+        ),
+        objective_value(r[:, :1], "ljung_box", lags=5),
+    )

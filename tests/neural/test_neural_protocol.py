@@ -173,6 +173,97 @@ def test_batch_iterator_blocks_and_tails():
     assert torch.equal(torch.sort(seen[:, 0]).values, torch.arange(103.0))
 
 
+def test_batch_iterator_segments():
+    from skorch.dataset import Dataset
+
+    n, m = 1030, 50
+    ds = Dataset(torch.arange(float(n))[:, None], torch.zeros(n, 1))
+    it = BatchIterator(
+        ds, batch_size=200, shuffle=True, contiguous=True, segment_length=m
+    )
+    # ceil(1030 / 200) = 6 batches of shuffled rows, each followed by 4 segments
+    assert len(it) == 6
+    torch.manual_seed(0)
+    offsets = set()
+    for _ in range(3):
+        batches = [xb[:, 0] for xb, _ in it]
+        shuffled = torch.cat([b[: len(b) - 4 * m] for b in batches])
+        # every row once among the shuffled rows, in random order
+        assert torch.equal(torch.sort(shuffled).values, torch.arange(float(n)))
+        assert not torch.all(torch.diff(shuffled) == 1)
+        segments = torch.stack([b[len(b) - 4 * m :].reshape(4, m) for b in batches])
+        assert torch.all(torch.diff(segments, dim=2) == 1)  # in order inside
+        starts = segments[:, :, 0].reshape(-1)
+        # 24 segments from the 20 of the pass: all 20 once before any again
+        assert len(torch.unique(starts[:20])) == 20
+        assert len(torch.unique(starts)) == 20
+        offsets.update((starts % m).tolist())
+        assert len({float(v) for v in starts % m}) == 1  # one cut per pass
+    assert len(offsets) > 1  # the cuts move between passes
+    # not shuffled (validation), or too few rows: blocks as before
+    plain = BatchIterator(ds, batch_size=200, contiguous=True, segment_length=m)
+    assert [len(xb) for xb, _ in plain] == [206] * 5
+    small = Dataset(torch.arange(60.0)[:, None], torch.zeros(60, 1))
+    short = BatchIterator(small, 200, shuffle=True, contiguous=True, segment_length=m)
+    assert [len(xb) for xb, _ in short] == [60]
+
+
+def test_segmented_ljung_box_training(data):
+    from skhybrid.losses import mse, objective_value
+
+    X, y = data
+    X = X.copy()
+    X[:, 0] = np.arange(200.0)
+    rec = Recorder()
+    model = _tiny(
+        DenseRegressor,
+        objective="mse+ljung_box",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        ljung_box_scaling="per_output",
+        batch_size=32,
+        validation_fraction=0.2,
+        max_epochs=2,
+        random_state=0,
+        callbacks=[rec],
+    ).fit(X, y)
+    # 160 training rows: 5 batches of 32 shuffled rows and 4 segments of 8
+    assert [len(b) for b in rec.batches] == [64] * 10
+    for b in rec.batches:
+        # the rows are standardised: consecutive rows differ by one step
+        steps = np.diff(b[32:, 0].numpy().reshape(4, 8), axis=1)
+        assert np.allclose(steps, steps[0, 0], rtol=1e-4) and steps[0, 0] > 0
+        assert not np.all(np.diff(b[:32, 0].numpy()) > 0)
+    criterion = model.net_.criterion_
+    assert (criterion.segment_length, criterion.segment_count) == (8, 4)
+    scale = criterion.ljung_box_scale
+    target = (y[:160] - model.y_mean_[0]) / model.y_scale_[0]
+    assert_allclose(scale, [np.var(target)], rtol=1e-5)
+    r = torch.randn(64, 1, dtype=torch.float64)
+    zero = torch.zeros(64, 1, dtype=torch.float64)
+    kw = dict(lags=5, ljung_box_scale=scale)
+    # training: the MSE over the shuffled rows, the Ljung-Box term over the 4
+    # segments
+    criterion.train()
+    assert_allclose(
+        float(criterion(zero, r)),
+        float(mse(r[:32]) + objective_value(r[32:], "ljung_box", segments=4, **kw)),
+        rtol=1e-10,
+    )
+    # eval mode (the validation stretch) treats the batch as one series
+    criterion.eval()
+    assert_allclose(
+        float(criterion(zero, r)),
+        float(objective_value(r, "mse+ljung_box", **kw)),
+        rtol=1e-10,
+    )
+    # the shuffled rows never enter the Ljung-Box term
+    criterion.train()
+    shuffled = r.clone()
+    shuffled[:32] = shuffled[torch.randperm(32)]
+    assert_allclose(float(criterion(zero, shuffled)), float(criterion(zero, r)))
+
+
 def test_keyboard_interrupt_keeps_best_weights(data):
     X, y = data
     params = dict(random_state=3, lr=0.003, validation_fraction=0.2)
@@ -234,6 +325,12 @@ def test_verbose(data, capsys):
         (dict(hidden_layer_sizes=(8, 0)), "hidden_layer_sizes"),
         (dict(hidden_layer_sizes=(8, 2.5)), "hidden_layer_sizes"),
         (dict(objective="ljung_box", ljung_box_lags=40), "batch_size=32"),
+        (
+            dict(objective="ljung_box", ljung_box_lags=5, ljung_box_segment_length=5),
+            "ljung_box_segment_length=5",
+        ),
+        (dict(ljung_box_segment_length=1), "ljung_box_segment_length"),
+        (dict(ljung_box_scaling="each"), "ljung_box_scaling"),
         (dict(objective="l2"), "objective"),
         (dict(lr=-1.0), "lr"),
         (dict(validation_fraction=1.0), "validation_fraction"),
@@ -299,3 +396,21 @@ def test_make_module_contract(cls):
 def test_make_module_checks_the_architecture():
     with pytest.raises(ValueError, match="n_steps"):
         RNNRegressor(n_steps=3).make_module(4, 1)
+
+
+def test_ljung_box_q_ignores_segments(data):
+    # The paper's Q cannot be pooled over segments: it keeps contiguous blocks.
+    X, y = data
+    rec = Recorder()
+    model = _tiny(
+        DenseRegressor,
+        objective="ljung_box_q",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        validation_fraction=0,
+        max_epochs=1,
+        random_state=0,
+        callbacks=[rec],
+    ).fit(X, y)
+    assert model.net_.criterion_.segment_count is None
+    assert sum(len(b) for b in rec.batches) == 200

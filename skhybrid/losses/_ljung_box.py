@@ -187,8 +187,10 @@ def _lag_products_grad(H, grad, nlags, n):
     )  # taps for lags -nlags..nlags, then a zero
     same, ahead, behind = kernel[:, _toeplitz_index(nlags, str(H.device))].unbind(1)
     out = torch.matmul(H, same)
-    out[:, :-1] += torch.matmul(H[:, 1:], ahead)
-    out[:, 1:] += torch.matmul(H[:, :-1], behind)
+    # Accumulate in place (beta = 1): a product into a temporary and an add
+    # would write and read two more series-sized buffers (2.3x slower at 1e6).
+    out[:, :-1].baddbmm_(H[:, 1:], ahead)
+    out[:, 1:].baddbmm_(H[:, :-1], behind)
     return out
 
 
@@ -233,7 +235,9 @@ def _lag_products_function():
                 m = -(-n // B)
                 inv = 1.0 / scale  # (p, 1)
                 shift = -x.mean(dim=-1, keepdim=True) * inv if center else None
-                buffer = x.new_zeros(p, m * B)
+                # Only the padding needs zeros; the series part is written next.
+                buffer = x.new_empty(p, m * B)
+                buffer[:, n:].zero_()
                 # mul then add_ in place: two fast passes (addcmul with broadcast
                 # operands is slower than both together on the CPU).
                 torch.mul(x, inv, out=buffer[:, :n])
@@ -250,7 +254,7 @@ def _lag_products_function():
                 n = ctx.n
                 gz = _lag_products_grad(H, grad, ctx.nlags, n)
                 gz = gz.view(H.shape[0], -1)[:, :n]
-                grad_x = gz * inv
+                grad_x = gz.mul_(inv)  # gz is a fresh buffer: scale it in place
                 if ctx.center:
                     grad_x.sub_(grad_x.mean(dim=-1, keepdim=True))
                 return grad_x, None, None, None

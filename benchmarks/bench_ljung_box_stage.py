@@ -23,7 +23,8 @@ A variant is ``mse`` (the zoo's MSE stage), ``lb`` (the same network with
 ``batch_size`` rows, weight 1, the zoo's Ljung-Box stage before issue 12 was
 closed) or comma-separated changes to ``lb``: ``seg=M``
 (``ljung_box_segment_length``), ``scale=per_output`` (``ljung_box_scaling``),
-``w=W`` (``ljung_box_weight``), ``lr=LR``. The zoo's Ljung-Box stage is now
+``w=W`` (``ljung_box_weight``), ``lr=LR``, ``pre=1``
+(``mse_pretraining=True``). The zoo's Ljung-Box stage is now
 ``seg=32,w=0.1``.
 """
 
@@ -49,6 +50,7 @@ KEYS = {
     "scale": ("ljung_box_scaling", str),
     "w": ("ljung_box_weight", float),
     "lr": ("lr", float),
+    "pre": ("mse_pretraining", lambda v: bool(int(v))),
 }
 
 

@@ -10,7 +10,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 from skorch import NeuralNetRegressor
-from skorch.callbacks import EarlyStopping, LRScheduler
+from skorch.callbacks import LRScheduler
 from skorch.dataset import Dataset
 from skorch.helper import predefined_split
 from torch.optim.lr_scheduler import ReduceLROnPlateau
@@ -18,6 +18,7 @@ from torch.optim.lr_scheduler import ReduceLROnPlateau
 from skhybrid.losses import OBJECTIVES, needs_time_order
 from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
 from skhybrid.neural._modules import ObjectiveLoss, RolloutModule
+from skhybrid.neural._pretraining import CandidateEarlyStopping, finetune
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -65,6 +66,17 @@ TRAINING_PARAMETERS_DOC = """\
         output's standardised training target, fixed at the start of ``fit``,
         so that every output's whiteness counts alike however large its
         residual.
+    mse_pretraining : bool, default=False
+        With an objective that has a Ljung-Box term, train in two phases: first
+        on the MSE alone (shuffled batches, learning-rate schedule and early
+        stopping as usual), then, from the best weights of that phase and with
+        its optimiser state and learning rate, on the objective itself for up
+        to ``max_epochs`` more epochs. The second phase's early stopping counts
+        the pretrained weights as its first candidate, so the weights kept are
+        never worse on the validation objective than the MSE solution. A
+        Ljung-Box term then refines an accurate model instead of shaping one
+        from scratch; ``history_`` holds both phases. Ignored with
+        ``objective="mse"``.
     lr : float, default=0.01
         Initial learning rate of Adam.
     max_epochs : int, default=200
@@ -245,7 +257,7 @@ def training_callbacks(est, monitor):
         ),
         (
             "early_stopping",
-            EarlyStopping(
+            CandidateEarlyStopping(
                 monitor=monitor,
                 patience=est.patience or est.max_epochs + 1,
                 load_best=True,
@@ -421,6 +433,7 @@ class BaseNeuralRegressor(
         "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
         "ljung_box_segment_length": [Interval(Integral, 2, None, closed="left"), None],
         "ljung_box_scaling": [StrOptions({"target", "per_output"})],
+        "mse_pretraining": ["boolean"],
         "lr": [Interval(Real, 0, None, closed="neither")],
         "max_epochs": [Interval(Integral, 1, None, closed="left")],
         "batch_size": [Interval(Integral, 2, None, closed="left")],
@@ -445,6 +458,7 @@ class BaseNeuralRegressor(
         ljung_box_weight=1.0,
         ljung_box_segment_length=None,
         ljung_box_scaling="target",
+        mse_pretraining=False,
         lr=0.01,
         max_epochs=200,
         batch_size=512,
@@ -465,6 +479,7 @@ class BaseNeuralRegressor(
         self.ljung_box_weight = ljung_box_weight
         self.ljung_box_segment_length = ljung_box_segment_length
         self.ljung_box_scaling = ljung_box_scaling
+        self.mse_pretraining = mse_pretraining
         self.lr = lr
         self.max_epochs = max_epochs
         self.batch_size = batch_size
@@ -738,6 +753,7 @@ class BaseNeuralRegressor(
             variance = yt.double().var(dim=0, unbiased=False).cpu().numpy()
             # An output without variance has nothing to whiten: leave it at 1.
             lb_scale = np.where(variance > 0, variance, 1.0).tolist()
+        pretrain = self.mse_pretraining and time_ordered
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
         with torch.random.fork_rng(devices=self._rng_devices()):
             torch.manual_seed(seed)
@@ -747,7 +763,7 @@ class BaseNeuralRegressor(
             net = _Net(
                 module=module,
                 criterion=criterion,
-                criterion__objective=self.objective,
+                criterion__objective="mse" if pretrain else self.objective,
                 criterion__lags=self.ljung_box_lags,
                 criterion__ljung_box_weight=self.ljung_box_weight,
                 criterion__segment_length=segment,
@@ -763,8 +779,10 @@ class BaseNeuralRegressor(
                 train_split=train_split,
                 iterator_train=BatchIterator,
                 iterator_train__shuffle=True,
-                iterator_train__contiguous=time_ordered and not segment,
-                iterator_train__segment_length=segment,
+                iterator_train__contiguous=(
+                    time_ordered and not segment and not pretrain
+                ),
+                iterator_train__segment_length=None if pretrain else segment,
                 iterator_valid=BatchIterator,
                 iterator_valid__contiguous=time_ordered,
                 iterator_valid__batch_size=valid_batch_size,
@@ -775,6 +793,8 @@ class BaseNeuralRegressor(
             # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
             # stopping) inside fit and restores the best weights on the way out.
             net.fit(Xt, yt)
+            if pretrain and not net.interrupted_:
+                finetune(net, Xt, yt, self.objective, segment)
         record_training(self, net)
         return self
 

@@ -414,3 +414,89 @@ def test_ljung_box_q_ignores_segments(data):
     ).fit(X, y)
     assert model.net_.criterion_.segment_count is None
     assert sum(len(b) for b in rec.batches) == 200
+
+
+class LossRecorder(Callback):
+    """Records the criterion's objective and the batch sizes of each epoch."""
+
+    def on_train_begin(self, net, **kwargs):
+        if not hasattr(self, "epochs"):
+            self.epochs = []
+
+    def on_epoch_begin(self, net, **kwargs):
+        self.epochs.append((net.criterion_.objective, []))
+
+    def on_batch_begin(self, net, batch=None, training=False, **kwargs):
+        if training:
+            self.epochs[-1][1].append(len(batch[0]))
+
+
+@pytest.mark.parametrize("cls", [DenseRegressor, RNNRegressor, CyclicRegressor])
+def test_mse_pretraining_trains_the_mse_first_then_the_objective(cls, data):
+    X, y = data
+    params = dict(
+        objective="mse+ljung_box",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        batch_size=32,
+        max_epochs=3,
+        random_state=0,
+    )
+    if cls is RNNRegressor:
+        params["n_steps"] = 1
+    rec = LossRecorder()
+    model = _tiny(cls, mse_pretraining=True, callbacks=[rec], **params).fit(X, y)
+    # phase 1: 3 epochs of the MSE on shuffled batches of 32 (160 rows);
+    # phase 2: 3 epochs of the objective, each batch 32 shuffled rows + 4 segments
+    assert [objective for objective, _ in rec.epochs] == ["mse"] * 3 + [
+        "mse+ljung_box"
+    ] * 3
+    assert all(sizes == [32] * 5 for _, sizes in rec.epochs[:3])
+    assert all(sizes == [64] * 5 for _, sizes in rec.epochs[3:])
+    assert model.n_epochs_ == 6 and len(model.history_) == 6
+    # the first phase is the MSE fit itself, bit for bit
+    plain = _tiny(cls, **{**params, "objective": "mse"}).fit(X, y)
+    assert_allclose(
+        model.history_[:3, "valid_loss"], plain.history_[:, "valid_loss"], rtol=1e-6
+    )
+
+
+def test_mse_pretraining_keeps_the_mse_weights_when_finetuning_does_worse(data):
+    # An absurd learning rate after pretraining makes every fine-tuning epoch
+    # worse than the pretrained weights: those must be the ones kept.
+    X, y = data
+
+    class BlowUpLearningRate(Callback):
+        def on_train_begin(self, net, **kwargs):
+            if net.criterion_.objective != "mse":
+                for group in net.optimizer_.param_groups:
+                    group["lr"] = 5.0
+
+    params = dict(
+        objective="mse+ljung_box",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        ljung_box_weight=0.0,
+        batch_size=32,
+        max_epochs=8,
+        random_state=0,
+    )
+    plain = _tiny(DenseRegressor, **{**params, "objective": "mse"}).fit(X, y)
+    model = _tiny(
+        DenseRegressor,
+        mse_pretraining=True,
+        patience=3,
+        callbacks=[BlowUpLearningRate()],
+        **params,
+    ).fit(X, y)
+    assert model.n_epochs_ > 8
+    assert model.best_epoch_ == plain.best_epoch_
+    assert_allclose(model.predict(X), plain.predict(X), rtol=1e-10)
+
+
+def test_mse_pretraining_is_ignored_by_the_mse(data):
+    X, y = data
+    a = _tiny(DenseRegressor, mse_pretraining=True, random_state=0).fit(X, y)
+    b = _tiny(DenseRegressor, random_state=0).fit(X, y)
+    assert a.n_epochs_ == b.n_epochs_
+    assert_allclose(a.predict(X), b.predict(X), rtol=1e-12)

@@ -71,7 +71,8 @@ TRAINING_PARAMETERS_DOC = """\
         on the MSE alone (shuffled batches, learning-rate schedule and early
         stopping as usual), then, from the best weights of that phase and with
         its optimiser state and learning rate, on the objective itself for up
-        to ``max_epochs`` more epochs. The second phase's early stopping counts
+        to ``max_epochs`` more epochs, with batch normalisation frozen at the
+        statistics of the first phase. The second phase's early stopping counts
         the pretrained weights as its first candidate, so the weights kept are
         never worse on the validation objective than the MSE solution. A
         Ljung-Box term then refines an accurate model instead of shaping one
@@ -182,6 +183,17 @@ class _Net(NeuralNetRegressor):
     skorch ends training on ``KeyboardInterrupt`` (its early stopping raises one
     too) and keeps the weights it has; ``interrupted_`` tells the two apart.
     """
+
+    #: Keep batch normalisation in eval mode while training (running statistics
+    #: used and left alone), as when fine-tuning; set by ``finetune``.
+    freeze_batch_norm = False
+
+    def _set_training(self, training=True):
+        super()._set_training(training)
+        if training and self.freeze_batch_norm:
+            for layer in self.module_.modules():
+                if isinstance(layer, torch.nn.modules.batchnorm._BatchNorm):
+                    layer.eval()
 
     def fit_loop(self, X, y=None, epochs=None, **fit_params):
         self.interrupted_ = False

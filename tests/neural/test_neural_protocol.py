@@ -500,3 +500,41 @@ def test_mse_pretraining_is_ignored_by_the_mse(data):
     b = _tiny(DenseRegressor, random_state=0).fit(X, y)
     assert a.n_epochs_ == b.n_epochs_
     assert_allclose(a.predict(X), b.predict(X), rtol=1e-12)
+
+
+def test_mse_pretraining_freezes_batch_norm_while_finetuning(data):
+    # The fine-tuning batches end in segments of consecutive rows: batch
+    # normalisation must neither normalise with their statistics nor learn them.
+    X, y = data
+    seen = []
+
+    class BatchNormState(Callback):
+        def on_batch_end(self, net, training=False, **kwargs):
+            if training:
+                layer = net.module_.layers[0]
+                seen.append(
+                    (
+                        net.criterion_.objective,
+                        layer.training,
+                        layer.running_mean.clone(),
+                    )
+                )
+
+    _tiny(
+        DenseRegressor,
+        objective="mse+ljung_box",
+        ljung_box_lags=5,
+        ljung_box_segment_length=8,
+        mse_pretraining=True,
+        max_epochs=2,
+        random_state=0,
+        callbacks=[BatchNormState()],
+    ).fit(X, y)
+    pretraining = [s for s in seen if s[0] == "mse"]
+    finetuning = [s for s in seen if s[0] != "mse"]
+    assert pretraining and finetuning
+    assert all(training for _, training, _ in pretraining)
+    assert not any(training for _, training, _ in finetuning)
+    # running statistics move while pretraining, not while fine-tuning
+    assert not torch.equal(pretraining[0][2], pretraining[-1][2])
+    assert all(torch.equal(s[2], finetuning[0][2]) for s in finetuning)

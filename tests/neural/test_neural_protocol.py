@@ -431,17 +431,20 @@ class LossRecorder(Callback):
             self.epochs[-1][1].append(len(batch[0]))
 
 
+#: A Ljung-Box objective on segments, for the tests of ``mse_pretraining``.
+SEGMENTED = dict(
+    objective="mse+ljung_box",
+    ljung_box_lags=5,
+    ljung_box_segment_length=8,
+    batch_size=32,
+    random_state=0,
+)
+
+
 @pytest.mark.parametrize("cls", [DenseRegressor, RNNRegressor, CyclicRegressor])
 def test_mse_pretraining_trains_the_mse_first_then_the_objective(cls, data):
     X, y = data
-    params = dict(
-        objective="mse+ljung_box",
-        ljung_box_lags=5,
-        ljung_box_segment_length=8,
-        batch_size=32,
-        max_epochs=3,
-        random_state=0,
-    )
+    params = dict(SEGMENTED, max_epochs=3)
     if cls is RNNRegressor:
         params["n_steps"] = 1
     rec = LossRecorder()
@@ -472,15 +475,7 @@ def test_mse_pretraining_keeps_the_mse_weights_when_finetuning_does_worse(data):
                 for group in net.optimizer_.param_groups:
                     group["lr"] = 5.0
 
-    params = dict(
-        objective="mse+ljung_box",
-        ljung_box_lags=5,
-        ljung_box_segment_length=8,
-        ljung_box_weight=0.0,
-        batch_size=32,
-        max_epochs=8,
-        random_state=0,
-    )
+    params = dict(SEGMENTED, ljung_box_weight=0.0, max_epochs=8)
     plain = _tiny(DenseRegressor, **{**params, "objective": "mse"}).fit(X, y)
     model = _tiny(
         DenseRegressor,
@@ -522,13 +517,10 @@ def test_mse_pretraining_freezes_batch_norm_while_finetuning(data):
 
     _tiny(
         DenseRegressor,
-        objective="mse+ljung_box",
-        ljung_box_lags=5,
-        ljung_box_segment_length=8,
         mse_pretraining=True,
         max_epochs=2,
-        random_state=0,
         callbacks=[BatchNormState()],
+        **SEGMENTED,
     ).fit(X, y)
     pretraining = [s for s in seen if s[0] == "mse"]
     finetuning = [s for s in seen if s[0] != "mse"]

@@ -345,6 +345,11 @@ def main(argv=None):
     except RunFolderError as exc:
         _error(str(exc))
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C after the lock but before the run's own handler (while the
+        # models are counted): nothing was trained, nothing to resume.
+        sys.stderr.write("\nskhybrid: interrupted before training\n")
+        return 130
     finally:
         folder.lock.release()
 

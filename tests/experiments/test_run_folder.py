@@ -399,3 +399,19 @@ def test_second_run_into_a_busy_folder_is_refused(tmp_path, capsys, no_training)
         _, err = first.communicate(timeout=60)
     assert first.returncode == 130, err
     assert not (out / ".lock").exists()
+
+
+def test_ctrl_c_while_the_models_are_counted_exits_130_and_unlocks(
+    tmp_path, capsys, monkeypatch
+):
+    # Between locking the folder and the run's own Ctrl-C handler the models of
+    # the zoo are counted; an interrupt there must not end in a traceback.
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(experiments, "model_zoo", interrupted)
+    out = tmp_path / "run"
+    argv = ["run", "pendulum", "--quick", "--no-progress", "--out", str(out)]
+    assert main(argv) == 130
+    assert "interrupted before training" in capsys.readouterr().err
+    assert not (out / ".lock").exists()

@@ -7,9 +7,13 @@ matrix product, so a Ljung-Box loss costs a few times an MSE even at a million
 samples (``benchmarks/bench_ljung_box.py``).
 """
 
-import functools
 from numbers import Integral
 
+from skhybrid.losses._lag_products import (
+    _lag_products,
+    direct_lag_products,
+    lag_products_function,
+)
 from skhybrid.utils._array_api import get_namespace, is_torch
 
 __all__ = [
@@ -123,162 +127,16 @@ _MATMUL_MIN_SAMPLES = 16_384
 _MATMUL_MAX_LAGS = 256
 
 
-#: Blocks hold a multiple of this many samples: rows of 8 float32 (32 bytes, one
-#: AVX register) keep every row of a block aligned, and MKL's products of blocks
-#: of 51 samples (50 lags) ran 1.3-1.9x slower than of 56 on 2 threads
-#: (``bench_ljung_box.py``: 15.4 ms against 11.9 ms at 1e6 samples).
-_MATMUL_ALIGN = 8
-
-
-def _matmul_block(nlags):
-    """Samples per block: ``nlags + 1`` (so that lags reach at most the next
-    block), rounded up to a multiple of ``_MATMUL_ALIGN``."""
-    return -(-(nlags + 1) // _MATMUL_ALIGN) * _MATMUL_ALIGN
-
-
-def _blocks(x, nlags, xp):
-    """Series (p, n) zero-padded and cut into blocks: shape (p, m, B)."""
-    p, n = x.shape
-    B = _matmul_block(nlags)
-    m = -(-n // B)
-    if m * B > n:
-        zeros = xp.zeros((p, m * B - n), dtype=x.dtype)
-        if is_torch(xp):
-            zeros = zeros.to(x.device)
-        x = xp.concat([x, zeros], axis=-1)
-    return xp.reshape(x, (p, m, B))
-
-
-def _lag_products(x, nlags, xp):
-    """Sums ``sum_t x_t x_{t+k}``, k = 0..nlags, of series ``x`` (p, n): (p, nlags+1).
-
-    The series is cut into blocks of ``B >= nlags + 1`` samples (see
-    :func:`_matmul_block`), the rows of ``H``
-    (m, B). ``H^T H`` (B, B) holds in ``[s, s + k]`` the products at lag ``k``
-    within a block, summed over blocks, and ``H[:-1]^T H[1:]`` in ``[s, s + k - B]``
-    those that reach into the next block. Side by side they form a (B, 2B)
-    matrix whose diagonals are the lag sums, read off by skewing its rows. Two
-    GEMMs on views of the series (no copies), about ``4 n B`` flops.
-    """
-    return _lag_products_blocks(_blocks(x, nlags, xp), nlags, xp)
-
-
-def _lag_products_blocks(H, nlags, xp):
-    """:func:`_lag_products` of a series already cut into blocks (p, m, B)."""
-    p, _, B = H.shape
-    Ht = xp.matrix_transpose(H)
-    pair = xp.concat(
-        [xp.matmul(Ht, H), xp.matmul(Ht[:, :, :-1], H[:, 1:, :])],
-        axis=-1,
-    )  # (p, B, 2B)
-    # Row s shifted left by s: append B zeros to the flat matrix and re-cut it
-    # into rows of 2B + 1, so that column k of row s holds pair[s, s + k].
-    flat = xp.reshape(pair, (p, 2 * B * B))
-    flat = xp.concat([flat, xp.zeros_like(flat[:, :B])], axis=-1)
-    skew = xp.reshape(flat, (p, B, 2 * B + 1))[..., : nlags + 1]
-    return xp.sum(skew, axis=1)
-
-
-def _lag_products_grad(H, grad, nlags, n):
-    """Gradient of ``sum_k grad_k * lag_products(x)_k`` with respect to ``x`` (torch).
-
-    ``H`` are the blocks of ``x`` (see :func:`_blocks`), ``n`` its length.
-    ``d/dx_t = 2 g_0 x_t + sum_{k>=1} g_k (x_{t+k} + x_{t-k})``: a correlation of
-    the series with a symmetric kernel, per block three matrix products with
-    Toeplitz matrices: the block itself, the next block and the previous one.
-    Returns the gradient in blocks, shape (p, m, B).
-    """
-    import torch
-
-    p = H.shape[0]
-    kernel = torch.cat(
-        [grad[:, 1:].flip(1), 2 * grad[:, :1], grad[:, 1:], grad.new_zeros(p, 1)], 1
-    )  # taps for lags -nlags..nlags, then a zero
-    same, ahead, behind = kernel[:, _toeplitz_index(nlags, str(H.device))].unbind(1)
-    out = torch.matmul(H, same)
-    # Accumulate in place (beta = 1): a product into a temporary and an add
-    # would write and read two more series-sized buffers (2.3x slower at 1e6).
-    out[:, :-1].baddbmm_(H[:, 1:], ahead)
-    out[:, 1:].baddbmm_(H[:, :-1], behind)
-    return out
-
-
-@functools.lru_cache(maxsize=16)
-def _toeplitz_index(nlags, device):
-    """Indices into the kernel of :func:`_lag_products_grad`'s Toeplitz matrices.
-
-    Shape (3, B, B): for the block itself, the next and the previous block,
-    ``[u, s]`` indexes the tap from input ``u`` to output ``s`` (lag ``u - s``
-    plus the blocks' offset), or the kernel's trailing zero beyond ``nlags``.
-    """
-    import torch
-
-    B = _matmul_block(nlags)
-    arange = torch.arange(B)
-    lag = arange[:, None] - arange + B * torch.tensor([0, 1, -1])[:, None, None]
-    index = torch.where(lag.abs() <= nlags, lag + nlags, 2 * nlags + 1)
-    return index.to(device)
-
-
-_LAG_PRODUCTS_FUNCTION = None
-
-
-def _lag_products_function():
-    """The torch autograd Function of the scaled (and centred) lag sums.
-
-    Forward and backward are fused by hand: the series is scaled, centred and
-    cut into blocks in the padded buffer without temporaries, and the
-    blocks are kept for the backward pass, which is three GEMMs and one more
-    fused pass. At a million samples the elementwise passes cost as much as the
-    matrix products, so this halves the cost of the loss against autograd.
-    """
-    global _LAG_PRODUCTS_FUNCTION
-    if _LAG_PRODUCTS_FUNCTION is None:
-        import torch
-
-        class LagProducts(torch.autograd.Function):
-            @staticmethod
-            def forward(ctx, x, nlags, scale, center):
-                p, n = x.shape
-                B = _matmul_block(nlags)
-                m = -(-n // B)
-                inv = 1.0 / scale  # (p, 1)
-                shift = -x.mean(dim=-1, keepdim=True) * inv if center else None
-                # Only the padding needs zeros; the series part is written next.
-                buffer = x.new_empty(p, m * B)
-                buffer[:, n:].zero_()
-                # mul then add_ in place: two fast passes (addcmul with broadcast
-                # operands is slower than both together on the CPU).
-                torch.mul(x, inv, out=buffer[:, :n])
-                if center:
-                    buffer[:, :n].add_(shift)
-                H = buffer.view(p, m, B)
-                ctx.save_for_backward(H, inv)
-                ctx.nlags, ctx.center, ctx.n = nlags, center, n
-                return _lag_products_blocks(H, nlags, get_namespace(H))
-
-            @staticmethod
-            def backward(ctx, grad):
-                H, inv = ctx.saved_tensors
-                n = ctx.n
-                gz = _lag_products_grad(H, grad, ctx.nlags, n)
-                gz = gz.view(H.shape[0], -1)[:, :n]
-                grad_x = gz.mul_(inv)  # gz is a fresh buffer: scale it in place
-                if ctx.center:
-                    grad_x.sub_(grad_x.mean(dim=-1, keepdim=True))
-                return grad_x, None, None, None
-
-        _LAG_PRODUCTS_FUNCTION = LagProducts
-    return _LAG_PRODUCTS_FUNCTION
-
-
 def _scaled_lag_products(residuals, nlags, xp, *, center):
-    """Lag sums of each column divided by its largest magnitude (and demeaned).
+    """Lag sums of each column divided by a scale (and demeaned).
 
     Returns ``(sums, scale)``: ``sums`` of shape ``(nlags + 1, ...)`` (the trailing
     shape of ``residuals``), ``scale`` of shape ``(1, ...)``, so that the lag sums
-    of the original series are ``sums * scale ** 2``. Raises a ValueError on NaN
-    or infinite values (see :func:`_scaled_by_max`).
+    of the original series are ``sums * scale ** 2``. The scale is the columns'
+    largest magnitude, or their root mean square where torch's direct path
+    (:func:`~skhybrid.losses._lag_products.direct_lag_products`) takes the
+    series. Raises a ValueError on NaN or infinite values (see
+    :func:`_scaled_by_max`).
     """
     n = residuals.shape[0]
     if nlags > _MATMUL_MAX_LAGS or n < _MATMUL_MIN_SAMPLES:
@@ -288,7 +146,12 @@ def _scaled_lag_products(residuals, nlags, xp, *, center):
         return _autocovariance(scaled, nlags, xp), scale
     tail = residuals.shape[1:]
     columns = xp.reshape(residuals, (n, -1))
+    series = xp.matrix_transpose(columns)  # (p, n)
     if is_torch(xp):
+        direct = direct_lag_products(series, nlags, center=center)
+        if direct is not None:
+            sums, scale = direct
+            return _untransposed(sums, scale, nlags, tail, xp)
         # Two reductions, no temporary: abs() would write a copy of the series
         # (aminmax and vector_norm(inf) are several times slower on the CPU).
         detached = columns.detach()
@@ -300,15 +163,19 @@ def _scaled_lag_products(residuals, nlags, xp, *, center):
     if not bool(xp.all(xp.isfinite(scale))):
         _scaled_by_max(residuals, xp)  # raises the common error
     scale = xp.where(scale > 0, scale, xp.ones_like(scale))
-    series = xp.matrix_transpose(columns)  # (p, n)
     scale_t = xp.matrix_transpose(scale)  # (p, 1)
     if is_torch(xp):
-        sums = _lag_products_function().apply(series, nlags, scale_t, center)
+        sums = lag_products_function().apply(series, nlags, scale_t, center)
     else:
         z = series / scale_t
         if center:
             z = z - xp.mean(z, axis=-1, keepdims=True)
         sums = _lag_products(z, nlags, xp)
+    return _untransposed(sums, scale_t, nlags, tail, xp)
+
+
+def _untransposed(sums, scale, nlags, tail, xp):
+    """Sums (p, nlags + 1) and scales (p, 1) in the residuals' trailing shape."""
     sums = xp.reshape(xp.matrix_transpose(sums), (nlags + 1, *tail))
     return sums, xp.reshape(scale, (1, *tail))
 

@@ -193,17 +193,21 @@ def test_matrix_product_path_matches_statsmodels(rng, n, lags):
 
 @pytest.mark.parametrize("n, lags", [(7, 3), (64, 1), (130, 20), (200, 5)])
 @pytest.mark.parametrize("function", ["ljung_box", "autocovariance_norm"])
-def test_matrix_product_path_gradcheck(monkeypatch, rng, n, lags, function):
-    """The hand-written backward pass of the matrix-product path is exact.
+@pytest.mark.parametrize("offset", [0.0, 0.5, 5.0])
+def test_matrix_product_path_gradcheck(monkeypatch, rng, n, lags, function, offset):
+    """The hand-written backward passes of the matrix-product paths are exact.
 
     gradcheck perturbs every sample, so it runs on short series with the path's
-    length threshold lowered; the value must equal the FFT path's as well.
+    length threshold lowered; the value must equal the FFT path's as well. The
+    offsets take the direct path with its centring afterwards (0.5) and, for
+    the centred statistic, the scaled path (5.0, a mean far above the spread);
+    130 samples leave a tail after the last full block, 200 none.
     """
     from skhybrid import losses
     from skhybrid.losses import _ljung_box
 
     f = getattr(losses, function)
-    x = torch.tensor(rng.standard_normal((n, 2)), requires_grad=True)
+    x = torch.tensor(rng.standard_normal((n, 2)) + offset, requires_grad=True)
     fft_value = f(x, lags)
     monkeypatch.setattr(_ljung_box, "_MATMUL_MIN_SAMPLES", 1)
     np.testing.assert_allclose(
@@ -233,6 +237,54 @@ def test_matrix_product_path_any_scale(monkeypatch, rng, dtype, scales):
         np.testing.assert_allclose(value.item(), q, rtol=rtol)
         value.backward()
         assert torch.isfinite(t.grad).all()
+
+
+def test_direct_path_takes_ordinary_series_and_declines_unsafe_ones(rng):
+    """The products of the unscaled series are used only where they are exact.
+
+    An ordinary residual (mean below its spread, moderate scale) takes the
+    direct path; a mean far above the spread (centring afterwards would cancel
+    digits), scales whose products under- or overflow, and NaN are declined,
+    and the statistic still equals statsmodels' through the scaled path.
+    """
+    from skhybrid.losses._lag_products import direct_lag_products
+
+    n, lags = 20_011, 20
+    x = rng.standard_normal(n)
+    expected = _statsmodels_q(x, lags)
+    cases = {
+        "ordinary": (x + 0.5, torch.float64, True),
+        "large mean": (x + 3.0, torch.float64, False),
+        "tiny": (x * 1e-20, torch.float32, False),
+        "huge": (x * 1e15, torch.float32, False),
+        "nan": (np.where(np.arange(n) == 7, np.nan, x), torch.float64, False),
+    }
+    for name, (values, dtype, direct) in cases.items():
+        t = torch.tensor(values, dtype=dtype)[None]
+        taken = direct_lag_products(t, lags, center=True) is not None
+        assert taken == direct, name
+        if name != "nan":
+            rtol = 1e-9 if dtype == torch.float64 else 1e-3
+            value = ljung_box(t[0], lags).item()
+            np.testing.assert_allclose(value, expected, rtol=rtol, err_msg=name)
+    # Uncentred sums have no cancellation to fear: a large mean is taken.
+    t = torch.tensor(x + 3.0)[None]
+    assert direct_lag_products(t, lags, center=False) is not None
+
+
+def test_direct_path_float32_matches_float64(rng):
+    """Centring afterwards keeps float32's precision where the path is taken."""
+    n, lags = 100_003, 50
+    x = _ar1(rng, n, 0.6, n_outputs=2) + np.array([0.0, 0.9]) * 2.5  # mean 0.9 sd
+    q64 = ljung_box(torch.tensor(x), lags, reduction="none")
+    t32 = torch.tensor(x, dtype=torch.float32, requires_grad=True)
+    q32 = ljung_box(t32, lags, reduction="none")
+    np.testing.assert_allclose(q32.detach().numpy(), q64.numpy(), rtol=1e-4)
+    t64 = torch.tensor(x, requires_grad=True)
+    ljung_box(t64, lags).backward()
+    q32.sum().backward()
+    scale = t64.grad.abs().max().item()
+    np.testing.assert_allclose(t32.grad.numpy(), t64.grad.numpy(), atol=1e-4 * scale)
 
 
 def test_blocked_fft_path_gradcheck(rng):

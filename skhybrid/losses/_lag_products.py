@@ -97,15 +97,18 @@ def _torch_lag_sums(H, nlags):
 
 
 def _kernel(grad):
-    """Taps of the gradient's correlation kernel, for lags -nlags..nlags, then a zero.
+    """Taps of the gradient's correlation kernel by absolute lag, then a zero.
 
     ``d/dx_t sum_k g_k sum_s x_s x_{s+k} = 2 g_0 x_t + sum_{k>=1} g_k (x_{t+k} +
-    x_{t-k})``; ``grad`` (p, nlags + 1) gives (p, 2 nlags + 2).
+    x_{t-k})``: the tap of lag ``d`` is ``g_|d|``, doubled at 0. ``grad``
+    (p, nlags + 1) gives (p, nlags + 2); the index ``nlags + 1`` (a zero)
+    stands for the lags beyond ``nlags``.
     """
     import torch
 
-    zero = grad.new_zeros(len(grad), 1)
-    return torch.cat([grad[:, 1:].flip(1), 2 * grad[:, :1], grad[:, 1:], zero], 1)
+    kernel = torch.nn.functional.pad(grad, (0, 1))
+    kernel[:, 0] *= 2
+    return kernel
 
 
 def _lag_products_grad(H, kernel, nlags, out=None):
@@ -139,15 +142,15 @@ def _toeplitz_index(nlags, device):
 
     Flattened from shape (3, B, B): for the block itself, the next and the
     previous block, ``[u, s]`` indexes the tap from input ``u`` to output ``s``
-    (lag ``u - s`` plus the blocks' offset), or the kernel's trailing zero beyond
-    ``nlags``.
+    (the absolute lag ``|u - s|``, with the blocks' offset), or the kernel's
+    trailing zero beyond ``nlags``.
     """
     import torch
 
     B = _matmul_block(nlags)
     arange = torch.arange(B)
     lag = arange[:, None] - arange + B * torch.tensor([0, 1, -1])[:, None, None]
-    index = torch.where(lag.abs() <= nlags, lag + nlags, 2 * nlags + 1)
+    index = torch.where(lag.abs() <= nlags, lag.abs(), nlags + 1)
     return index.flatten().to(device)
 
 
@@ -209,7 +212,7 @@ def _window_index(nlags, length, device):
 
     The window is the series' last full block (``B`` samples) and the tail after
     it, ``length`` samples. ``[u, t]`` (flattened) indexes the tap from input
-    ``u`` to output ``t`` (lag ``u - t``) for the pairs within ``nlags`` of which
+    ``u`` to output ``t`` (lag ``|u - t|``) for the pairs within ``nlags`` of which
     at least one sample lies in the tail, the kernel's trailing zero for others.
     """
     import torch
@@ -218,15 +221,26 @@ def _window_index(nlags, length, device):
     arange = torch.arange(length)
     lag = arange[:, None] - arange
     keep = (lag.abs() <= nlags) & (torch.maximum(arange[:, None], arange) >= B)
-    return torch.where(keep, lag + nlags, 2 * nlags + 1).flatten().to(device)
+    return torch.where(keep, lag.abs(), nlags + 1).flatten().to(device)
 
 
 @functools.lru_cache(maxsize=16)
-def _lags(nlags, dtype, device):
-    """The lags 0..nlags as a (1, nlags + 1) tensor."""
+def _edges(n, nlags, dtype, device):
+    """What the centring needs of the series' ends, for ``n`` samples.
+
+    Returns ``(index, ones, lags)``: ``index`` the first and the last ``nlags``
+    samples; ``ones`` (2 nlags, nlags + 1) such that ``x[index] @ ones`` is
+    ``A_k``, the sum of the first ``k`` and the last ``k`` samples; ``lags``
+    ``n + k`` for k = 0..nlags.
+    """
     import torch
 
-    return torch.arange(nlags + 1, dtype=dtype, device=device)[None]
+    k = torch.arange(nlags + 1)
+    j = torch.arange(nlags)[:, None]
+    ones = torch.cat([j < k, nlags - 1 - j < k]).to(dtype)
+    index = torch.cat([torch.arange(nlags), torch.arange(n - nlags, n)])
+    lags = (k + n).to(dtype)[None]
+    return index.to(device), ones.to(device), lags.to(device)
 
 
 def _tail_sums(x, nlags, start):
@@ -259,32 +273,30 @@ def _centring(x, sums, nlags):
 
     ``sum_{t<n-k} (x_t - mu)(x_{t+k} - mu) = S_k - (n + k) mu^2 + mu A_k`` with
     ``A_k`` the sum of the first ``k`` and the last ``k`` samples. Returns the
-    centred sums and ``(mu, A)``.
+    centred sums and what :func:`_centring_grad` needs: ``mu`` and
+    ``(A_k - 2 (n + k) mu) / n``.
+    """
+    n = x.shape[1]
+    index, ones, lags = _edges(n, nlags, x.dtype, str(x.device))
+    mu = x.mean(dim=1, keepdim=True)
+    A = x.index_select(1, index) @ ones
+    shift = lags * mu
+    centred = sums.addcmul_(mu, A - shift)
+    return centred, mu, A.sub_(shift, alpha=2).div_(n)
+
+
+def _centring_grad(grad_x, grad, mu, shares, nlags):
+    """Add the centring's share to the gradient ``grad_x`` (p, n), in place.
+
+    ``dC_k/dx_t = dS_k/dx_t + (A_k - 2 (n + k) mu) / n + mu ([t < k] + [t >= n - k])``;
+    ``shares`` is the middle term (see :func:`_centring`).
     """
     import torch
 
-    n = x.shape[1]
-    mu = x.mean(dim=1, keepdim=True)
-    ends = x[:, :nlags].cumsum(1).add_(x[:, n - nlags :].flip(1).cumsum(1))
-    A = torch.nn.functional.pad(ends, (1, 0))
-    k = _lags(nlags, x.dtype, str(x.device))
-    return sums.addcmul(mu, A).sub_((k + n) * (mu * mu)), mu, A
-
-
-def _centring_grad(grad_x, grad, mu, A, nlags):
-    """Add the centring's share to the gradient ``grad_x`` (p, n), in place.
-
-    ``dC_k/dx_t = dS_k/dx_t + (A_k - 2 (n + k) mu) / n + mu ([t < k] + [t >= n - k])``.
-    """
     n = grad_x.shape[1]
-    k = _lags(nlags, grad.dtype, str(grad.device))
-    shares = A.addcmul((k + n) * mu, grad.new_full((), -2.0))
-    grad_x.add_((grad * shares).sum(1, keepdim=True).div_(n))
-    # sum_{k > j} g_k for j = 0..nlags-1: the first and the last nlags samples.
-    beyond = grad[:, 1:].flip(1).cumsum(1).flip(1).mul_(mu)
-    grad_x[:, :nlags].add_(beyond)
-    grad_x[:, n - nlags :].add_(beyond.flip(1))
-    return grad_x
+    index, ones, _ = _edges(n, nlags, grad.dtype, str(grad.device))
+    grad_x.add_(torch.linalg.vecdot(grad, shares)[:, None])
+    return grad_x.index_add_(1, index, (grad @ ones.T).mul_(mu))
 
 
 _DIRECT_FUNCTION = None
@@ -309,7 +321,7 @@ def _direct_function():
                 mu = A = None
                 if center:
                     sums, mu, A = _centring(x, sums, nlags)
-                ctx.save_for_backward(x, mu, A)
+                ctx.save_for_backward(x, mu, A)  # A: the centring's shares
                 ctx.nlags, ctx.center = nlags, center
                 ctx.mark_non_differentiable(raw0)
                 return sums, raw0

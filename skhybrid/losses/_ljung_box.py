@@ -7,6 +7,7 @@ matrix product, so a Ljung-Box loss costs a few times an MSE even at a million
 samples (``benchmarks/bench_ljung_box.py``).
 """
 
+import functools
 from numbers import Integral
 
 from skhybrid.losses._lag_products import (
@@ -320,11 +321,45 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
             f"reduction must be 'sum' or 'none'; got reduction={reduction!r}."
         )
     xp = get_namespace(residuals)
-    q = weighted_autocorrelations(residuals, lags)
-    per_output = xp.sum(q**2, axis=0)
+    per_output = _direct_statistic(residuals, lags, xp)
+    if per_output is None:
+        q = weighted_autocorrelations(residuals, lags)
+        per_output = xp.sum(q**2, axis=0)
     if reduction == "none":
         return per_output
     return xp.sum(per_output)
+
+
+@functools.lru_cache(maxsize=16)
+def _statistic_weights(n, lags, dtype, device):
+    """``n (n + 2) / (n - k)`` for k = 1..lags, shape (1, lags): Q's weights."""
+    import torch
+
+    k = torch.arange(1, lags + 1, dtype=torch.float64)
+    return (n * (n + 2.0) / (n - k)).to(dtype=dtype, device=device)[None]
+
+
+def _direct_statistic(residuals, lags, xp):
+    """Q per output from torch's direct lag sums, or None where they do not apply.
+
+    The same statistic as ``sum(weighted_autocorrelations(...) ** 2)``, in four
+    differentiable operations instead of some twenty: on a long series each
+    costs more in dispatch than in arithmetic (``bench_ljung_box.py``).
+    """
+    if not is_torch(xp):
+        return None
+    _check_series(residuals, lags, xp)
+    n = residuals.shape[0]
+    if lags > _MATMUL_MAX_LAGS or n < _MATMUL_MIN_SAMPLES:
+        return None
+    series = xp.matrix_transpose(xp.reshape(residuals, (n, -1)))
+    direct = direct_lag_products(series, lags, center=True)
+    if direct is None:
+        return None
+    sums = direct[0]
+    rho = sums[:, 1:] / sums[:, :1]
+    weights = _statistic_weights(n, lags, rho.dtype, str(rho.device))
+    return xp.reshape((rho * rho * weights).sum(1), residuals.shape[1:])
 
 
 def autocovariance_norm(residuals, lags=20, *, segments=1):

@@ -32,8 +32,10 @@ _MATMUL_ALIGN = 8
 
 def _matmul_block(nlags):
     """Samples per block: ``nlags + 1`` (so that lags reach at most the next
-    block), rounded up to a multiple of ``_MATMUL_ALIGN``."""
-    return -(-(nlags + 1) // _MATMUL_ALIGN) * _MATMUL_ALIGN
+    block), rounded up to a multiple of ``_MATMUL_ALIGN``, and at least 16
+    (the gradient's products of blocks of 8 ran 2.6x slower than of 16 at 5
+    lags and 1e6 samples)."""
+    return max(16, -(-(nlags + 1) // _MATMUL_ALIGN) * _MATMUL_ALIGN)
 
 
 def _blocks(x, nlags, xp):
@@ -80,20 +82,30 @@ def _lag_products_blocks(H, nlags, xp):
 
 
 def _torch_lag_sums(H, nlags):
-    """:func:`_lag_products_blocks` for torch, with fewer operations.
+    """:func:`_lag_products_blocks` for torch, blocks of any size (p, m, b).
 
-    The two products are written side by side into one buffer that already
-    holds the zeros the skew needs, so no concatenation copies them.
+    Lag ``k`` reaches ``r = ceil(nlags / b)`` blocks ahead, so each block is
+    multiplied with itself and its next ``r`` blocks: ``r + 1`` products, written
+    side by side into one buffer that already holds the zeros the skew needs
+    (no concatenation copies them). Blocks shorter than the lags cost fewer
+    flops (about ``2 n (b + nlags)`` against ``4 n b``): blocks of
+    :data:`_FORWARD_BLOCK` samples ran 16-22 % faster than of ``nlags + 1`` at
+    50 lags (``bench_ljung_box.py``'s machine, 1e6 samples).
     """
-
-    p, _, B = H.shape
-    flat = H.new_empty(p, 2 * B * B + B)
-    flat[:, 2 * B * B :].zero_()
-    pair = flat[:, : 2 * B * B].view(p, B, 2 * B)
+    p, m, b = H.shape
+    r = -(-nlags // b)
+    width = (r + 1) * b
+    flat = H.new_empty(p, width * b + b)
+    flat[:, width * b :].zero_()
+    pair = flat[:, : width * b].view(p, b, width)
     Ht = H.transpose(1, 2)
-    pair[:, :, :B].baddbmm_(Ht, H, beta=0)
-    pair[:, :, B:].baddbmm_(Ht[:, :, :-1], H[:, 1:], beta=0)
-    return flat.view(p, B, 2 * B + 1)[:, :, : nlags + 1].sum(1)
+    for j in range(r + 1):
+        pair[:, :, j * b : (j + 1) * b].baddbmm_(Ht[:, :, : m - j], H[:, j:], beta=0)
+    return flat.view(p, b, width + 1)[:, :, : nlags + 1].sum(1)
+
+
+#: Samples per block of the direct path's forward products (any lag count).
+_FORWARD_BLOCK = 16
 
 
 def _kernel(grad):
@@ -312,11 +324,11 @@ def _direct_function():
             @staticmethod
             def forward(ctx, x, nlags, center):
                 p, n = x.shape
-                B = _matmul_block(nlags)
-                m0 = n // B
-                sums = _torch_lag_sums(x[:, : m0 * B].view(p, m0, B), nlags)
-                if n > m0 * B:
-                    sums += _tail_sums(x, nlags, m0 * B)
+                b = _FORWARD_BLOCK
+                m0 = n // b
+                sums = _torch_lag_sums(x[:, : m0 * b].view(p, m0, b), nlags)
+                if n > m0 * b:
+                    sums += _tail_sums(x, nlags, m0 * b)
                 raw0 = sums[:, :1].clone()
                 mu = A = None
                 if center:
@@ -370,7 +382,7 @@ def direct_lag_products(series, nlags, *, center):
     import torch
 
     n = series.shape[1]
-    if n // _matmul_block(nlags) < 2 or not series.dtype.is_floating_point:
+    if n < 2 * _matmul_block(nlags) or not series.dtype.is_floating_point:
         return None
     x = series.contiguous()
     sums, raw0 = _direct_function().apply(x, nlags, center)

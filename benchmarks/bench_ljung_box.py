@@ -3,14 +3,15 @@
 Compares, on the same tensor and in one run:
 
 - ``lb``: :func:`skhybrid.losses.ljung_box` (lag sums by blocked matrix products
-  with a hand-written backward pass);
+  on views of the series, centred afterwards, with a hand-written backward pass;
+  ``docs/losses.md``);
 - ``fft``: the same statistic through the overlap-save FFT path (the
   implementation before 0.2, still used beyond 256 lags), differentiated by
   autograd;
-- ``direct``: the textbook loop over lags, ``sum_t x_t x_{t+k}`` for k = 1..L;
+- ``loop``: the textbook loop over lags, ``sum_t x_t x_{t+k}`` for k = 1..L;
 - ``mse``: ``mean(x ** 2)``, the baseline every training loop pays anyway.
 
-The calls are interleaved (mse, lb, fft, direct, mse, ...) and each ratio is the
+The calls are interleaved (mse, lb, fft, loop, mse, ...) and each ratio is the
 median over rounds of the per-round ratio, so a load that comes and goes on a
 shared machine affects numerator and denominator alike.
 
@@ -31,7 +32,7 @@ from skhybrid.losses._ljung_box import _autocovariance, _scaled_by_max
 from skhybrid.utils import get_namespace
 
 
-def direct_ljung_box(x, lags):
+def loop_ljung_box(x, lags):
     n = x.shape[0]
     xc = x - x.mean()
     denom = (xc * xc).sum()
@@ -103,25 +104,25 @@ def main(argv=None):
         f"L = {args.lags}; forward + backward, median ms"
     )
     header = (
-        f"{'n':>9} {'mse':>8} {'lb':>8} {'fft':>8} {'direct':>8} "
-        f"{'lb/mse':>7} {'fft/mse':>8} {'direct/mse':>10}"
+        f"{'n':>9} {'mse':>8} {'lb':>8} {'fft':>8} {'loop':>8} "
+        f"{'lb/mse':>7} {'fft/mse':>8} {'loop/mse':>10}"
     )
     print(header)
     print("-" * len(header))
     for n in (1_000, 100_000, 1_000_000):
         x = torch.randn(n, generator=gen, dtype=dtype)
-        reference = direct_ljung_box(x.double(), args.lags)
+        reference = loop_ljung_box(x.double(), args.lags)
         for fn in (lb, fft):
             if not torch.allclose(fn(x.double(), args.lags), reference, rtol=1e-9):
-                raise AssertionError(f"{fn.__name__} and direct differ at n={n}")
-        fns = [mse, lb, fft] + ([direct_ljung_box] if n <= 100_000 else [])
+                raise AssertionError(f"{fn.__name__} and the loop differ at n={n}")
+        fns = [mse, lb, fft] + ([loop_ljung_box] if n <= 100_000 else [])
         rounds = time_rounds(fns, x, args.lags)
         ms = [1e3 * _median(r[i] for r in rounds) for i in range(len(fns))]
         ratios = [_median(r[i] / r[0] for r in rounds) for i in range(len(fns))]
         if len(fns) < 4:  # the O(n L) loop is too slow to repeat at 1e6
             t0 = time.perf_counter()
             x1 = x.detach().requires_grad_(True)
-            direct_ljung_box(x1, args.lags).backward()
+            loop_ljung_box(x1, args.lags).backward()
             ms.append(1e3 * (time.perf_counter() - t0))
             ratios.append(ms[-1] / ms[0])
         print(

@@ -1,10 +1,11 @@
 """The Ljung-Box statistic, for NumPy arrays and torch tensors from one implementation.
 
 The lag sums ``sum_t x_t x_{t+k}`` are computed by blocked matrix products (long
-series, up to 256 lags) or by FFT (short series, more lags), and the torch version is
-differentiable: the matrix-product path has its own backward pass, one more
-matrix product, so a Ljung-Box loss costs a few times an MSE even at a million
-samples (``benchmarks/bench_ljung_box.py``).
+series, up to 256 lags; the kernels live in :mod:`skhybrid.losses._lag_products`)
+or by FFT (short series, more lags), and the torch version is differentiable: the
+matrix-product paths have their own backward passes, so a Ljung-Box loss costs
+about 3.6x an MSE at a million samples (``benchmarks/bench_ljung_box.py``,
+``docs/losses.md``).
 """
 
 import functools

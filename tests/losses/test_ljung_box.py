@@ -267,6 +267,9 @@ def test_direct_path_takes_ordinary_series_and_declines_unsafe_ones(rng):
             rtol = 1e-9 if dtype == torch.float64 else 1e-3
             value = ljung_box(t[0], lags).item()
             np.testing.assert_allclose(value, expected, rtol=rtol, err_msg=name)
+            # autocorrelation's own route to the same sums agrees.
+            q = (weighted_autocorrelations(t[0], lags) ** 2).sum().item()
+            np.testing.assert_allclose(q, expected, rtol=rtol, err_msg=name)
     # Uncentred sums have no cancellation to fear: a large mean is taken.
     t = torch.tensor(x + 3.0)[None]
     assert direct_lag_products(t, lags, center=False) is not None

@@ -96,7 +96,12 @@ def test_least_squares_init_for_every_estimator(fitted, est):
     separate = np.stack(
         [est.simulate(U_seq[i], init[i], init="least_squares") for i in range(3)]
     )
-    np.testing.assert_allclose(batch, separate, rtol=1e-10, atol=1e-10)
+    # Each trajectory has its own Levenberg-Marquardt iteration, but a batched
+    # rollout or product can round differently from a single one, and that can
+    # move where an iteration stops: within its stopping rule, a relative step
+    # of sqrt(_RTOL) = 1e-6 (a clean-clone CI run saw 2.4e-10 for the cyclic
+    # network). Shared step sizes or stopping would differ far more.
+    np.testing.assert_allclose(batch, separate, rtol=1e-6, atol=1e-8)
 
 
 def test_true_pendulum_physics_reproduces_the_clean_trajectory():

@@ -21,8 +21,6 @@ Two torch paths:
 
 import functools
 
-from skhybrid.utils._array_api import is_torch
-
 #: Blocks hold a multiple of this many samples: rows of 8 float32 (32 bytes, one
 #: AVX register) keep every row of a block aligned, and MKL's products of blocks
 #: of 51 samples (50 lags) ran 1.3-1.9x slower than of 56 on 2 threads
@@ -39,15 +37,15 @@ def _matmul_block(nlags):
 
 
 def _blocks(x, nlags, xp):
-    """Series (p, n) zero-padded and cut into blocks: shape (p, m, B)."""
+    """NumPy series (p, n) zero-padded and cut into blocks: shape (p, m, B).
+
+    Torch cuts its own blocks, in a scaled buffer or as views of the series.
+    """
     p, n = x.shape
     B = _matmul_block(nlags)
     m = -(-n // B)
     if m * B > n:
-        zeros = xp.zeros((p, m * B - n), dtype=x.dtype)
-        if is_torch(xp):
-            zeros = zeros.to(x.device)
-        x = xp.concat([x, zeros], axis=-1)
+        x = xp.concat([x, xp.zeros((p, m * B - n), dtype=x.dtype)], axis=-1)
     return xp.reshape(x, (p, m, B))
 
 

@@ -322,7 +322,7 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
             f"reduction must be 'sum' or 'none'; got reduction={reduction!r}."
         )
     xp = get_namespace(residuals)
-    per_output = _direct_statistic(residuals, lags, xp)
+    per_output = _long_torch_statistic(residuals, lags, xp)
     if per_output is None:
         q = weighted_autocorrelations(residuals, lags)
         per_output = xp.sum(q**2, axis=0)
@@ -333,34 +333,33 @@ def ljung_box(residuals, lags=20, *, reduction="sum"):
 
 @functools.lru_cache(maxsize=16)
 def _statistic_weights(n, lags, dtype, device):
-    """``n (n + 2) / (n - k)`` for k = 1..lags, shape (1, lags): Q's weights."""
+    """``n (n + 2) / (n - k)`` for k = 1..lags, shape (lags, 1): Q's weights."""
     import torch
 
     k = torch.arange(1, lags + 1, dtype=torch.float64)
-    return (n * (n + 2.0) / (n - k)).to(dtype=dtype, device=device)[None]
+    return (n * (n + 2.0) / (n - k)).to(dtype=dtype, device=device)[:, None]
 
 
-def _direct_statistic(residuals, lags, xp):
-    """Q per output from torch's direct lag sums, or None where they do not apply.
+def _long_torch_statistic(residuals, lags, xp):
+    """Q per output of a long torch series, or None for other inputs.
 
-    The same statistic as ``sum(weighted_autocorrelations(...) ** 2)``, in four
-    differentiable operations instead of some twenty: on a long series each
-    costs more in dispatch than in arithmetic (``bench_ljung_box.py``).
+    The same statistic as ``sum(weighted_autocorrelations(...) ** 2)`` from the
+    same lag sums, in a few differentiable operations instead of some twenty: on
+    a long series each costs more in dispatch than in arithmetic
+    (``bench_ljung_box.py``).
     """
-    if not is_torch(xp):
+    n = residuals.shape[0]
+    if not is_torch(xp) or lags > _MATMUL_MAX_LAGS or n < _MATMUL_MIN_SAMPLES:
         return None
     _check_series(residuals, lags, xp)
-    n = residuals.shape[0]
-    if lags > _MATMUL_MAX_LAGS or n < _MATMUL_MIN_SAMPLES:
-        return None
-    series = xp.matrix_transpose(xp.reshape(residuals, (n, -1)))
-    direct = direct_lag_products(series, lags, center=True)
-    if direct is None:
-        return None
-    sums = direct[0]
-    rho = sums[:, 1:] / sums[:, :1]
+    acov, _ = _scaled_lag_products(residuals, lags, xp, center=True)
+    variance = acov[0:1, ...]
+    # A constant series has zero covariances: Q = 0 rather than 0 / 0.
+    rho = acov[1:, ...] / xp.where(variance > 0, variance, xp.ones_like(variance))
     weights = _statistic_weights(n, lags, rho.dtype, str(rho.device))
-    return xp.reshape((rho * rho * weights).sum(1), residuals.shape[1:])
+    if residuals.ndim == 1:
+        weights = weights[:, 0]
+    return xp.sum(rho * rho * weights, axis=0)
 
 
 def autocovariance_norm(residuals, lags=20, *, segments=1):

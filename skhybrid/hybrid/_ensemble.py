@@ -6,32 +6,26 @@ from numbers import Integral, Real
 import numpy as np
 import torch
 from sklearn.base import BaseEstimator, RegressorMixin, clone
-from sklearn.utils import Bunch, check_random_state
+from sklearn.utils import Bunch
 from sklearn.utils.validation import check_is_fitted
-from skorch.dataset import Dataset
-from skorch.helper import predefined_split
 from torch import nn
 
 from skhybrid.domain._base import DomainModel
-from skhybrid.losses import OBJECTIVES, needs_time_order
-from skhybrid.neural._base import (
-    _Net,
+from skhybrid.neural.engine import (
     check_device,
     check_time_ordered_rows,
     record_training,
-    rng_devices,
-    training_callbacks,
+    train_module,
+    training_constraints,
+    training_parameters_doc,
     validation_rows,
 )
-from skhybrid.neural._callbacks import BatchIterator
-from skhybrid.neural._modules import ObjectiveLoss
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
     Interval,
-    StrOptions,
     _fit_context,
     validate_data,
 )
@@ -102,27 +96,7 @@ class HybridEnsembleRegressor(
         Supplies the network architecture (for example a
         :class:`~skhybrid.neural.DenseRegressor`); its own training settings are
         not used.
-    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, \
-            default="mse"
-        Joint training objective. A Ljung-Box term assumes the rows are in time
-        order and trains on contiguous blocks of rows.
-    ljung_box_lags : int, default=20
-        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    lr : float, default=0.01
-        Initial learning rate of Adam.
-    max_epochs : int, default=300
-        Most passes over the training rows.
-    batch_size : int or None, default=None
-        Rows per mini-batch (contiguous blocks for a Ljung-Box objective, shuffled
-        rows otherwise); ``None`` trains on all training rows at once.
-    weight_decay : float, default=0.0
-        L2 penalty on the network weights (not on the physical parameters).
-    validation_fraction : float, default=0.2
-        Fraction of the rows, taken from the END (the most recent rows), whose
-        loss drives the learning-rate schedule, early stopping and the choice of
-        the kept epoch. 0 trains on all rows and monitors the training loss.
+    %(training_parameters)s
     horizon : int, default=1
         Steps of the training loss. 1 trains one step ahead. ``T > 1`` trains by
         simulation error, as the networks do: from every row that starts ``T``
@@ -133,25 +107,10 @@ class HybridEnsembleRegressor(
         the loss is the MSE over the horizon; gradients reach the physical
         parameters through every step. Needs time-ordered windows and
         ``objective="mse"``.
-    patience : int or None, default=30
-        Epochs without improvement of the monitored loss before training stops;
-        ``None`` trains for ``max_epochs``.
-    lr_patience : int, default=10
-        Epochs without improvement before the learning rate is reduced.
-    lr_factor : float, default=0.5
-        Factor applied to the learning rate on a plateau.
+    weight_decay : float, default=0.0
+        L2 penalty on the network weights (not on the physical parameters).
     warm_start_domain : bool, default=True
         Start the physical parameters from a least-squares fit of ``domain``.
-    callbacks : list of skorch callbacks or None, default=None
-        Extra :mod:`skorch.callbacks`, run after the built-in ones.
-    random_state : int, RandomState instance or None, default=None
-        Seeds the initial weights and the batch order; the same seed gives
-        identical predictions on CPU. The global torch random state is left
-        untouched.
-    device : {"cpu", "cuda"}, default="cpu"
-        Where physics and network train and the network predicts.
-    verbose : int, default=0
-        0 is silent; 1 or more shows a progress bar and skorch's table of epochs.
 
     Attributes
     ----------
@@ -233,23 +192,10 @@ class HybridEnsembleRegressor(
     _parameter_constraints = {
         "domain": [HasMethods(["fit", "predict_with"])],
         "neural": [HasMethods(["make_module"])],
-        "objective": [StrOptions(set(OBJECTIVES))],
-        "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
-        "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
-        "lr": [Interval(Real, 0, None, closed="neither")],
-        "max_epochs": [Interval(Integral, 1, None, closed="left")],
-        "batch_size": [Interval(Integral, 2, None, closed="left"), None],
-        "weight_decay": [Interval(Real, 0, None, closed="left")],
-        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        **training_constraints(),
         "horizon": [Interval(Integral, 1, None, closed="left")],
-        "patience": [Interval(Integral, 1, None, closed="left"), None],
-        "lr_patience": [Interval(Integral, 0, None, closed="left")],
-        "lr_factor": [Interval(Real, 0, 1, closed="neither")],
+        "weight_decay": [Interval(Real, 0, None, closed="left")],
         "warm_start_domain": ["boolean"],
-        "callbacks": [list, None],
-        "random_state": ["random_state"],
-        "device": [StrOptions({"cpu", "cuda"})],
-        "verbose": ["verbose"],
     }
 
     def __init__(
@@ -260,40 +206,48 @@ class HybridEnsembleRegressor(
         objective="mse",
         ljung_box_lags=20,
         ljung_box_weight=1.0,
+        ljung_box_segment_length=None,
+        ljung_box_scaling="target",
+        mse_pretraining=False,
         lr=0.01,
-        max_epochs=300,
-        batch_size=None,
-        weight_decay=0.0,
+        max_epochs=200,
+        batch_size=512,
         validation_fraction=0.2,
-        horizon=1,
+        target_scaling="per_output",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
-        warm_start_domain=True,
         callbacks=None,
         random_state=None,
         device="cpu",
         verbose=0,
+        horizon=1,
+        weight_decay=0.0,
+        warm_start_domain=True,
     ):
         self.domain = domain
         self.neural = neural
         self.objective = objective
         self.ljung_box_lags = ljung_box_lags
         self.ljung_box_weight = ljung_box_weight
+        self.ljung_box_segment_length = ljung_box_segment_length
+        self.ljung_box_scaling = ljung_box_scaling
+        self.mse_pretraining = mse_pretraining
         self.lr = lr
         self.max_epochs = max_epochs
         self.batch_size = batch_size
-        self.weight_decay = weight_decay
         self.validation_fraction = validation_fraction
-        self.horizon = horizon
+        self.target_scaling = target_scaling
         self.patience = patience
         self.lr_patience = lr_patience
         self.lr_factor = lr_factor
-        self.warm_start_domain = warm_start_domain
         self.callbacks = callbacks
         self.random_state = random_state
         self.device = device
         self.verbose = verbose
+        self.horizon = horizon
+        self.weight_decay = weight_decay
+        self.warm_start_domain = warm_start_domain
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -359,7 +313,6 @@ class HybridEnsembleRegressor(
         self._y_1d = y.ndim == 1
         Y = y[:, None] if self._y_1d else y
         self.n_outputs_ = Y.shape[1]
-        time_ordered = needs_time_order(self.objective)
         min_rows = check_time_ordered_rows(self, n)
         if self.horizon > 1 and self.objective != "mse":
             raise ValueError(
@@ -385,25 +338,20 @@ class HybridEnsembleRegressor(
         fallback = np.where(fallback > 0, fallback, 1.0)
         self.y_scale_ = np.where(s > 1e-12 * fallback, s, fallback)
 
+        if self.target_scaling == "shared":
+            shared = np.sqrt(np.mean(self.y_scale_**2))
+            self.y_scale_ = np.full_like(self.y_scale_, shared)
+
         n_valid = validation_rows(n, self.validation_fraction, min_rows)
         Xt = torch.tensor(X, device=self.device)
         Yt = torch.as_tensor(Y / self.y_scale_, device=self.device)
         layout = None
         if self.horizon > 1:
             layout, Xt, Yt, n_valid = self._horizon_data(dom, X, Y, Yt, n_valid)
-        monitor = "valid_loss" if n_valid else "train_loss"
         stop = Xt.shape[0] - n_valid
-        batch = stop if self.batch_size is None else self.batch_size
-        if n_valid:
-            train_split = predefined_split(Dataset(Xt[stop:], Yt[stop:]))
-            # A Ljung-Box validation loss is the statistic of the whole stretch.
-            valid_batch = n_valid if time_ordered else batch
-        else:
-            train_split, valid_batch = None, batch
+        valid = (Xt[stop:], Yt[stop:]) if n_valid else None
 
-        seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
-        with torch.random.fork_rng(devices=rng_devices(self.device)):
-            torch.manual_seed(seed)
+        def make_module():
             network = self.neural.make_module(n_features, self.n_outputs_)
             module = HybridModule(
                 dom,
@@ -415,35 +363,22 @@ class HybridEnsembleRegressor(
                 self.x_scale_,
                 self.y_scale_,
             )
-            if layout is not None:
-                module = HybridRollout(module, layout, self.horizon)
-            net = _Net(
-                module=module,
-                criterion=ObjectiveLoss,
-                criterion__objective=self.objective,
-                criterion__lags=self.ljung_box_lags,
-                criterion__ljung_box_weight=self.ljung_box_weight,
-                optimizer=torch.optim.Adam,
-                optimizer__param_groups=[
-                    ("net.*", {"weight_decay": self.weight_decay})
-                ],
-                lr=self.lr,
-                max_epochs=self.max_epochs,
-                batch_size=batch,
-                train_split=train_split,
-                iterator_train=BatchIterator,
-                iterator_train__shuffle=True,
-                iterator_train__contiguous=time_ordered,
-                iterator_valid=BatchIterator,
-                iterator_valid__contiguous=time_ordered,
-                iterator_valid__batch_size=valid_batch,
-                callbacks=training_callbacks(self, monitor),
-                device=self.device,
-                verbose=self.verbose,
+            return (
+                module
+                if layout is None
+                else HybridRollout(module, layout, self.horizon)
             )
-            # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
-            # stopping) inside fit and restores the best state on the way out.
-            net.fit(Xt[:stop], Yt[:stop])
+
+        net = train_module(
+            self,
+            make_module,
+            Xt[:stop],
+            Yt[:stop],
+            valid=valid,
+            optimizer_kwargs={
+                "param_groups": [("net.*", {"weight_decay": self.weight_decay})]
+            },
+        )
         record_training(self, net)
         hybrid = net.module_ if layout is None else net.module_.hybrid
         self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
@@ -751,3 +686,8 @@ def _std_dict(domain, std, free):
         k: v if k in free else (0.0 if np.ndim(v) == 0 else np.zeros(np.shape(v)))
         for k, v in values.items()
     }
+
+
+HybridEnsembleRegressor.__doc__ = HybridEnsembleRegressor.__doc__.replace(
+    "    %(training_parameters)s", training_parameters_doc()
+)

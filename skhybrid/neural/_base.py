@@ -1,24 +1,24 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
-import warnings
-from numbers import Integral, Real
+from numbers import Integral
 
 import numpy as np
 import torch
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.preprocessing import StandardScaler
-from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
-from skorch import NeuralNetRegressor
-from skorch.callbacks import LRScheduler
-from skorch.dataset import Dataset
-from skorch.helper import predefined_split
-from torch.optim.lr_scheduler import ReduceLROnPlateau
 
-from skhybrid.losses import OBJECTIVES, needs_time_order
-from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
 from skhybrid.neural._modules import ObjectiveLoss, RolloutModule
-from skhybrid.neural._pretraining import CandidateEarlyStopping, finetune
+from skhybrid.neural.engine import (
+    check_device,
+    check_time_ordered_rows,
+    record_training,
+    rng_devices,
+    train_module,
+    training_constraints,
+    training_parameters_doc,
+    validation_rows,
+)
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -36,67 +36,10 @@ __all__ = ["BaseNeuralRegressor"]
 # module runs in eval mode and in float64, see _forward).
 _PREDICT_CHUNK = 8192
 
-
-#: The training-protocol parameters every neural estimator shares, written once
-#: and filled into each class docstring by :func:`fill_training_docstring`.
-TRAINING_PARAMETERS_DOC = """\
-    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
-        Training objective on the standardised residuals (see
-        :mod:`skhybrid.losses.base`). An objective with a Ljung-Box term assumes
-        the rows are in time order and trains on contiguous blocks of rows, never
-        on shuffled rows.
-    ljung_box_lags : int, default=20
-        Lags of the Ljung-Box term; must be smaller than ``batch_size``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    ljung_box_segment_length : int or None, default=None
-        With ``"ljung_box"`` or ``"mse+ljung_box"``, each training batch holds
-        ``batch_size`` shuffled rows, on which the MSE is computed, followed by
-        ``batch_size // ljung_box_segment_length`` segments of this many
-        consecutive rows drawn from random places, on which the Ljung-Box term
-        is computed (autocovariances within each segment, pooled; see
-        :class:`~skhybrid.neural._callbacks.BatchIterator`). Must be larger
-        than ``ljung_box_lags``. None trains on contiguous blocks of
-        ``batch_size`` rows, as ``"ljung_box_q"`` always does; other objectives
-        ignore it.
-    ljung_box_scaling : {"target", "per_output"}, default="target"
-        Scale of each output's autocovariance norm in the Ljung-Box term.
-        ``"target"``: the scale of the standardised targets, the MSE's (see
-        ``target_scaling``). ``"per_output"``: divided by the variance of that
-        output's standardised training target, fixed at the start of ``fit``,
-        so that every output's whiteness counts alike however large its
-        residual.
-    mse_pretraining : bool, default=False
-        With an objective that has a Ljung-Box term, train in two phases: first
-        on the MSE alone (shuffled batches, learning-rate schedule and early
-        stopping as usual), then, from the best weights of that phase and with
-        its optimiser state and learning rate, on the objective itself for up
-        to ``max_epochs`` more epochs, with batch normalisation frozen at the
-        statistics of the first phase. The second phase's early stopping counts
-        the pretrained weights as its first candidate, so the weights kept are
-        never worse on the validation objective than the MSE solution. A
-        Ljung-Box term then refines an accurate model instead of shaping one
-        from scratch; ``history_`` holds both phases. Ignored with
-        ``objective="mse"``.
-    lr : float, default=0.01
-        Initial learning rate of Adam.
-    max_epochs : int, default=200
-        Most passes over the training rows.
-    batch_size : int, default=512
-        Rows per mini-batch.
-    validation_fraction : float, default=0.2
-        Fraction of the rows, taken from the END (the most recent rows), whose
-        loss drives the learning-rate schedule, early stopping and the choice of
-        the best weights. 0 trains on all rows and monitors the training loss.
-    target_scaling : {"per_output", "shared"}, default="per_output"
-        How targets are standardised for training. ``"per_output"`` divides each
-        output by its own standard deviation, so every output counts the same (the
-        usual choice for states in different units). ``"shared"`` divides all
-        outputs by one scale (the root mean square of their standard deviations),
-        so the loss weighs errors in the outputs' own units, like a physics
-        stage's least squares: the choice for a residual stage, where outputs the
-        physics already explains hold only noise that per-output scaling would
-        blow up to unit variance.
+#: What the network learns and over how many steps: parameters of the row
+#: networks (and the joint ensemble's ``horizon``), beside the shared training
+#: parameters of :mod:`skhybrid.neural.engine`.
+NETWORK_PARAMETERS_DOC = """\
     horizon : int, default=1
         Steps of the training loss. 1 trains one step ahead (the paper's
         protocol). ``T > 1`` trains by simulation error: from every row that
@@ -118,24 +61,11 @@ TRAINING_PARAMETERS_DOC = """\
         ``n_steps`` (``DenseRegressor``) finds the window length from the rows
         (the one under which consecutive rows continue each other, else 1). With
         ``horizon > 1`` each simulated step adds the predicted increment to the
-        simulated state. ``CyclicRegressor`` supports ``"state"`` only.
-    patience : int or None, default=30
-        Epochs without improvement of the monitored loss before training stops
-        (early stopping); ``None`` trains for ``max_epochs``.
-    lr_patience : int, default=10
-        Epochs without improvement before the learning rate is reduced.
-    lr_factor : float, default=0.5
-        Factor applied to the learning rate on a plateau.
-    callbacks : list of skorch callbacks or None, default=None
-        Extra :mod:`skorch.callbacks`, run after the built-in ones.
-    random_state : int, RandomState instance or None, default=None
-        Seeds the initial weights and the shuffling, without touching torch's
-        global random state. The same seed gives bitwise-identical predictions
-        on CPU.
-    device : {"cpu", "cuda"}, default="cpu"
-        Where the network trains and predicts.
-    verbose : int, default=0
-        0 is silent; 1 or more shows a progress bar and skorch's table of epochs."""
+        simulated state. ``CyclicRegressor`` supports ``"state"`` only."""
+
+#: The training parameters every neural estimator takes: the engine's shared
+#: ones, then the networks' own.
+TRAINING_PARAMETERS_DOC = training_parameters_doc() + "\n" + NETWORK_PARAMETERS_DOC
 
 #: The fitted attributes every neural estimator shares.
 FITTED_ATTRIBUTES_DOC = """\
@@ -175,216 +105,6 @@ def fill_training_docstring(doc):
     return doc.replace("    %(training_parameters)s", TRAINING_PARAMETERS_DOC).replace(
         "    %(fitted_attributes)s", FITTED_ATTRIBUTES_DOC
     )
-
-
-class _Net(NeuralNetRegressor):
-    """skorch's regressor, remembering whether a Ctrl-C cut its training short.
-
-    skorch ends training on ``KeyboardInterrupt`` (its early stopping raises one
-    too) and keeps the weights it has; ``interrupted_`` tells the two apart.
-    """
-
-    #: Keep batch normalisation in eval mode while training (running statistics
-    #: used and left alone), as when fine-tuning; set by ``finetune``.
-    freeze_batch_norm = False
-
-    def _set_training(self, training=True):
-        super()._set_training(training)
-        if training and self.freeze_batch_norm:
-            for layer in self.module_.modules():
-                if isinstance(layer, torch.nn.modules.batchnorm._BatchNorm):
-                    layer.eval()
-
-    def fit_loop(self, X, y=None, epochs=None, **fit_params):
-        self.interrupted_ = False
-        try:
-            return super().fit_loop(X, y, epochs=epochs, **fit_params)
-        except KeyboardInterrupt:
-            stopper = dict(self.callbacks_).get("early_stopping")
-            stopped = stopper is not None and stopper.misses_ >= stopper.patience
-            self.interrupted_ = not stopped
-            raise
-
-
-def _progress_bar():
-    """skorch's ProgressBar, or None where tqdm (which it needs) is missing."""
-    try:
-        import tqdm  # noqa: F401
-        from skorch.callbacks import ProgressBar
-    except ImportError:  # pragma: no cover - tqdm is a dependency of skorch
-        return None
-    return ProgressBar()
-
-
-def validation_rows(n_samples, validation_fraction, min_rows):
-    """Number of validation rows taken from the end of the rows (0 for none).
-
-    Parameters
-    ----------
-    n_samples : int
-        Rows of the data.
-    validation_fraction : float
-        Fraction of the rows to validate on.
-    min_rows : int
-        Fewest rows either part may have; below it there is no split.
-
-    Returns
-    -------
-    n_valid : int
-        Validation rows, the last ones; 0 trains on all rows.
-    """
-    n_valid = int(np.floor(n_samples * validation_fraction))
-    if n_valid < min_rows or n_samples - n_valid < min_rows:
-        return 0
-    return n_valid
-
-
-def training_callbacks(est, monitor):
-    """The built-in skorch callbacks of the training protocol, then the user's.
-
-    Parameters
-    ----------
-    est : estimator
-        Has ``lr``, ``lr_factor``, ``lr_patience``, ``patience``, ``max_epochs``,
-        ``verbose`` and ``callbacks``.
-    monitor : {"valid_loss", "train_loss"}
-        The loss that drives the schedule and early stopping.
-
-    Returns
-    -------
-    callbacks : list of (str, skorch.callbacks.Callback)
-        Divergence check, plateau schedule, early stopping (restoring the best
-        epoch), a progress bar when verbose, and ``est.callbacks``.
-    """
-    callbacks = [
-        ("divergence_check", DivergenceCheck(est.lr)),
-        (
-            "lr_scheduler",
-            LRScheduler(
-                policy=ReduceLROnPlateau,
-                monitor=monitor,
-                factor=est.lr_factor,
-                patience=est.lr_patience,
-            ),
-        ),
-        (
-            "early_stopping",
-            CandidateEarlyStopping(
-                monitor=monitor,
-                patience=est.patience or est.max_epochs + 1,
-                load_best=True,
-            ),
-        ),
-    ]
-    if est.verbose:
-        bar = _progress_bar()
-        if bar is not None:
-            callbacks.append(("progress_bar", bar))
-    for i, cb in enumerate(est.callbacks or []):
-        callbacks.append((f"user_{i}", cb))
-    return callbacks
-
-
-def record_training(est, net):
-    """Set ``net_``, ``history_``, ``n_epochs_``, ``best_epoch_``; warn on Ctrl-C.
-
-    Parameters
-    ----------
-    est : estimator
-        The estimator being fitted.
-    net : _Net
-        Its trained skorch net.
-    """
-    net.module_.eval()
-    est.net_ = net
-    est.history_ = net.history
-    est.n_epochs_ = sum("train_loss" in row for row in net.history)
-    est.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
-    if getattr(net, "interrupted_", False):
-        warnings.warn(
-            f"training of {type(est).__name__} was interrupted (Ctrl-C) after "
-            f"{est.n_epochs_} epochs; the model keeps the weights of its best "
-            f"epoch so far ({est.best_epoch_}).",
-            UserWarning,
-            stacklevel=3,
-        )
-
-
-def check_time_ordered_rows(est, n_samples):
-    """Fewest training rows ``est``'s objective needs; checks its batches too.
-
-    A Ljung-Box objective computes autocovariances within each block of
-    ``batch_size`` rows (``None``: all rows), so a block and the data must be
-    longer than ``ljung_box_lags``. Other objectives need two rows.
-
-    Parameters
-    ----------
-    est : estimator
-        Has ``objective``, ``ljung_box_lags`` and ``batch_size``.
-    n_samples : int
-        Training rows.
-
-    Returns
-    -------
-    min_rows : int
-        ``ljung_box_lags + 1`` for a Ljung-Box objective, else 2.
-    """
-    if not needs_time_order(est.objective):
-        return 2
-    min_rows = est.ljung_box_lags + 1
-    segment = getattr(est, "ljung_box_segment_length", None)
-    if segment is not None and segment <= est.ljung_box_lags:
-        raise ValueError(
-            f"ljung_box_segment_length={segment} must be larger than "
-            f"ljung_box_lags={est.ljung_box_lags}: objective={est.objective!r} "
-            "computes autocovariances within each segment."
-        )
-    if est.batch_size is not None and est.batch_size <= est.ljung_box_lags:
-        raise ValueError(
-            f"batch_size={est.batch_size} must be larger than "
-            f"ljung_box_lags={est.ljung_box_lags}: objective="
-            f"{est.objective!r} computes autocorrelations within each "
-            "block of batch_size rows."
-        )
-    if n_samples < min_rows:
-        raise ValueError(
-            f"ljung_box_lags={est.ljung_box_lags} must be smaller than the "
-            f"number of samples, n_samples={n_samples}."
-        )
-    return min_rows
-
-
-def check_device(device):
-    """Raise a ValueError for ``device='cuda'`` without a CUDA device.
-
-    Parameters
-    ----------
-    device : {"cpu", "cuda"}
-        The requested device.
-    """
-    if device == "cuda" and not torch.cuda.is_available():
-        raise ValueError(
-            "device='cuda' but torch finds no CUDA device "
-            "(torch.cuda.is_available() is False); use device='cpu'."
-        )
-
-
-def rng_devices(device):
-    """The CUDA devices whose random state :func:`torch.random.fork_rng` forks.
-
-    Parameters
-    ----------
-    device : {"cpu", "cuda"}
-        The training device.
-
-    Returns
-    -------
-    devices : list of int
-        The current CUDA device for ``"cuda"``, none for ``"cpu"``.
-    """
-    if device == "cuda":
-        return [torch.cuda.current_device()]
-    return []
 
 
 class BaseNeuralRegressor(
@@ -440,26 +160,9 @@ class BaseNeuralRegressor(
     _is_abstract_base = True
 
     _parameter_constraints = {
-        "objective": [StrOptions(set(OBJECTIVES))],
-        "ljung_box_lags": [Interval(Integral, 1, None, closed="left")],
-        "ljung_box_weight": [Interval(Real, 0, None, closed="left")],
-        "ljung_box_segment_length": [Interval(Integral, 2, None, closed="left"), None],
-        "ljung_box_scaling": [StrOptions({"target", "per_output"})],
-        "mse_pretraining": ["boolean"],
-        "lr": [Interval(Real, 0, None, closed="neither")],
-        "max_epochs": [Interval(Integral, 1, None, closed="left")],
-        "batch_size": [Interval(Integral, 2, None, closed="left")],
-        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
-        "patience": [Interval(Integral, 1, None, closed="left"), None],
-        "lr_patience": [Interval(Integral, 0, None, closed="left")],
-        "lr_factor": [Interval(Real, 0, 1, closed="neither")],
-        "callbacks": [list, None],
-        "random_state": ["random_state"],
-        "device": [StrOptions({"cpu", "cuda"})],
-        "target_scaling": [StrOptions({"per_output", "shared"})],
+        **training_constraints(),
         "horizon": [Interval(Integral, 1, None, closed="left")],
         "target": [StrOptions({"state", "increment"})],
-        "verbose": ["verbose"],
     }
 
     def __init__(
@@ -476,8 +179,6 @@ class BaseNeuralRegressor(
         batch_size=512,
         validation_fraction=0.2,
         target_scaling="per_output",
-        horizon=1,
-        target="state",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -485,6 +186,8 @@ class BaseNeuralRegressor(
         random_state=None,
         device="cpu",
         verbose=0,
+        horizon=1,
+        target="state",
     ):
         self.objective = objective
         self.ljung_box_lags = ljung_box_lags
@@ -719,7 +422,6 @@ class BaseNeuralRegressor(
         n_samples, n_features = X.shape
         n_outputs = y2.shape[1]
         self._check_architecture(n_features, n_outputs)
-        time_ordered = needs_time_order(self.objective)
         min_rows = check_time_ordered_rows(self, n_samples)
 
         self._increment_layout = None
@@ -741,72 +443,29 @@ class BaseNeuralRegressor(
         yt = self._to_tensor((y_train - self.y_mean_) / self.y_scale_)
 
         n_valid = self._split(n_samples, min_rows)
-        monitor = "valid_loss" if n_valid else "train_loss"
         rollout = None
         if self.horizon > 1:
             rollout, Xt, yt, n_valid = self._horizon_data(X, y2, Xt, yt, n_valid)
-            monitor = "valid_loss" if n_valid else "train_loss"
+        valid = None
         if n_valid:
             stop = Xt.shape[0] - n_valid
-            train_split = predefined_split(Dataset(Xt[stop:], yt[stop:]))
+            valid = (Xt[stop:], yt[stop:])
             Xt, yt = Xt[:stop], yt[:stop]
-            # A Ljung-Box validation loss is the statistic of the whole stretch.
-            valid_batch_size = n_valid if time_ordered else self.batch_size
-        else:
-            train_split, valid_batch_size = None, self.batch_size
 
-        callbacks = training_callbacks(self, monitor)
+        def make_module():
+            module = self._training_module(self._make_module(n_features, n_outputs))
+            return module if rollout is None else RolloutModule(module, *rollout)
 
         criterion, criterion_kwargs = self._criterion()
-        segmented = self.objective in ("ljung_box", "mse+ljung_box")
-        segment = self.ljung_box_segment_length if segmented else None
-        lb_scale = None
-        if time_ordered and self.ljung_box_scaling == "per_output":
-            variance = yt.double().var(dim=0, unbiased=False).cpu().numpy()
-            # An output without variance has nothing to whiten: leave it at 1.
-            lb_scale = np.where(variance > 0, variance, 1.0).tolist()
-        pretrain = self.mse_pretraining and time_ordered
-        seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
-        with torch.random.fork_rng(devices=self._rng_devices()):
-            torch.manual_seed(seed)
-            module = self._training_module(self._make_module(n_features, n_outputs))
-            if rollout is not None:
-                module = RolloutModule(module, *rollout)
-            net = _Net(
-                module=module,
-                criterion=criterion,
-                criterion__objective="mse" if pretrain else self.objective,
-                criterion__lags=self.ljung_box_lags,
-                criterion__ljung_box_weight=self.ljung_box_weight,
-                criterion__segment_length=segment,
-                criterion__ljung_box_scale=lb_scale,
-                criterion__segment_count=(
-                    max(1, self.batch_size // segment) if segment else None
-                ),
-                **{f"criterion__{k}": v for k, v in criterion_kwargs.items()},
-                optimizer=torch.optim.Adam,
-                lr=self.lr,
-                max_epochs=self.max_epochs,
-                batch_size=self.batch_size,
-                train_split=train_split,
-                iterator_train=BatchIterator,
-                iterator_train__shuffle=True,
-                iterator_train__contiguous=(
-                    time_ordered and not segment and not pretrain
-                ),
-                iterator_train__segment_length=None if pretrain else segment,
-                iterator_valid=BatchIterator,
-                iterator_valid__contiguous=time_ordered,
-                iterator_valid__batch_size=valid_batch_size,
-                callbacks=callbacks,
-                device=self.device,
-                verbose=self.verbose,
-            )
-            # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
-            # stopping) inside fit and restores the best weights on the way out.
-            net.fit(Xt, yt)
-            if pretrain and not net.interrupted_:
-                finetune(net, Xt, yt, self.objective, segment)
+        net = train_module(
+            self,
+            make_module,
+            Xt,
+            yt,
+            valid=valid,
+            criterion=criterion,
+            criterion_kwargs=criterion_kwargs,
+        )
         record_training(self, net)
         return self
 

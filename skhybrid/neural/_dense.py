@@ -103,8 +103,6 @@ class DenseRegressor(BaseNeuralRegressor):
         batch_size=512,
         validation_fraction=0.2,
         target_scaling="per_output",
-        horizon=1,
-        target="state",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -112,6 +110,8 @@ class DenseRegressor(BaseNeuralRegressor):
         random_state=None,
         device="cpu",
         verbose=0,
+        horizon=1,
+        target="state",
     ):
         super().__init__(
             objective=objective,

@@ -18,6 +18,7 @@ __all__ = [
     "MLPModule",
     "ObjectiveLoss",
     "RecurrentModule",
+    "SequenceObjectiveLoss",
 ]
 
 _CELLS = {"gru": nn.GRU, "lstm": nn.LSTM, "rnn": nn.RNN}
@@ -220,6 +221,65 @@ class ObjectiveLoss(nn.Module):
             ljung_box_weight=self.ljung_box_weight,
             **kwargs,
         )
+
+
+class SequenceObjectiveLoss(ObjectiveLoss):
+    """A training objective on simulated sequences, as a torch criterion.
+
+    ``forward(y_pred, y_true)`` takes ``(n, T, n_outputs)`` tensors: ``n``
+    simulated sub-sequences of ``T`` steps. The MSE is the mean over every step
+    of every sequence; a Ljung-Box term is computed within each sequence (or
+    each ``segment_length`` stretch of it, the remainder left out of the term)
+    and pooled over them (:func:`~skhybrid.losses.objective_value` with
+    ``segments``), so a residual autocorrelation never spans two sequences.
+
+    Parameters
+    ----------
+    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}
+        The objective.
+    lags : int
+        Ljung-Box lags.
+    ljung_box_weight : float
+        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+    segment_length : int or None, default=None
+        Steps of each series of the Ljung-Box term; None takes whole sequences.
+    ljung_box_scale : sequence of float or None, default=None
+        Divisor of each output's autocovariance norm.
+    """
+
+    def __init__(
+        self,
+        objective="mse",
+        lags=20,
+        ljung_box_weight=1.0,
+        segment_length=None,
+        ljung_box_scale=None,
+    ):
+        super().__init__(
+            objective, lags, ljung_box_weight, segment_length, ljung_box_scale
+        )
+
+    def forward(self, y_pred, y_true):
+        residuals = y_true - y_pred
+        if self.objective == "mse":
+            return mse(residuals)
+        n, T, p = residuals.shape
+        m = self.segment_length or T
+        per = T // m
+        series = residuals[:, : per * m].reshape(n * per * m, p)
+        scale = self.ljung_box_scale
+        if scale is not None:
+            scale = torch.as_tensor(scale, dtype=y_pred.dtype, device=y_pred.device)
+        term = objective_value(
+            series,
+            "ljung_box" if self.objective == "mse+ljung_box" else self.objective,
+            lags=self.lags,
+            segments=n * per,
+            ljung_box_scale=scale,
+        )
+        if self.objective == "mse+ljung_box":
+            return mse(residuals) + self.ljung_box_weight * term
+        return term
 
 
 class CyclicLoss(ObjectiveLoss):

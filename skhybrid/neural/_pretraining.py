@@ -12,8 +12,9 @@ validation objective than the MSE solution.
 from copy import deepcopy
 
 from skorch.callbacks import EarlyStopping
+from skorch.dataset import Dataset
 
-__all__ = ["CandidateEarlyStopping", "finetune"]
+__all__ = ["CandidateEarlyStopping", "finetune", "validation_loss"]
 
 
 class CandidateEarlyStopping(EarlyStopping):
@@ -39,36 +40,50 @@ class CandidateEarlyStopping(EarlyStopping):
             self.best_model_weights_ = weights
 
 
-def _validation_loss(net, X, y):
-    """The validation loss of the current weights, as skorch records it."""
-    _, valid = net.get_split_datasets(X, y)
-    if valid is None:
-        return None
+def validation_loss(net, X, y):
+    """The loss of the net's current weights on ``X``, ``y``, as skorch records it.
+
+    Parameters
+    ----------
+    net : skorch.NeuralNet
+        An initialised net.
+    X, y : torch.Tensor
+        Samples and targets, batched by the net's validation iterator.
+
+    Returns
+    -------
+    loss : float
+        The mean loss over the samples (weighted by batch size).
+    """
     total, count = 0.0, 0
-    for batch in net.get_iterator(valid, training=False):
+    for batch in net.get_iterator(Dataset(X, y), training=False):
         n = len(batch[1])
         total += net.validation_step(batch)["loss"].item() * n
         count += n
     return total / count
 
 
-def finetune(net, X, y, objective, segment_length):
+def finetune(net, X, y, objective, segment_length, *, sequences=False, valid=None):
     """Continue a net trained on the MSE with ``objective``.
 
     Parameters
     ----------
     net : skorch.NeuralNet
-        Fitted with ``criterion__objective="mse"`` on shuffled batches, its best
-        weights restored; its callbacks include ``"early_stopping"``, a
-        :class:`CandidateEarlyStopping`.
+        Fitted with ``criterion__objective="mse"``, its best weights restored; its
+        callbacks include ``"early_stopping"``, a :class:`CandidateEarlyStopping`.
     X, y : torch.Tensor
-        The tensors ``net`` was fitted on (the validation split is taken from
-        them as in the first phase).
+        The training tensors ``net`` was fitted on.
     objective : str
         The objective with a Ljung-Box term to go on with.
     segment_length : int or None
-        Segments of the Ljung-Box term (see ``BatchIterator``); None trains on
-        contiguous blocks of rows.
+        Segments of the Ljung-Box term of row models (see ``BatchIterator``);
+        None trains on contiguous blocks of rows.
+    sequences : bool, default=False
+        Whether the samples are simulated sub-sequences: the batches stay as
+        they are (each sequence is a series of its own).
+    valid : tuple of torch.Tensor or None, default=None
+        The validation tensors of the first phase; the pretrained weights'
+        loss on them is the second phase's first candidate.
 
     Returns
     -------
@@ -79,13 +94,13 @@ def finetune(net, X, y, objective, segment_length):
     # Attributes, not set_params: set_params on the criterion would
     # re-initialise the optimiser and lose its state and learning rate.
     net.criterion_.objective = objective
-    net.iterator_train__segment_length = segment_length
-    net.iterator_train__contiguous = segment_length is None
+    if not sequences:
+        net.iterator_train__segment_length = segment_length
+        net.iterator_train__contiguous = segment_length is None
     stopper = dict(net.callbacks_)["early_stopping"]
-    score = _validation_loss(net, X, y)
-    if score is not None:
+    if valid is not None:
         stopper.candidate_ = (
-            score,
+            validation_loss(net, *valid),
             stopper.best_epoch_,
             deepcopy(net.module_.state_dict()),
         )

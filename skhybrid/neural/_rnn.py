@@ -93,8 +93,6 @@ class RNNRegressor(BaseNeuralRegressor):
         batch_size=512,
         validation_fraction=0.2,
         target_scaling="per_output",
-        horizon=1,
-        target="state",
         patience=30,
         lr_patience=10,
         lr_factor=0.5,
@@ -102,6 +100,8 @@ class RNNRegressor(BaseNeuralRegressor):
         random_state=None,
         device="cpu",
         verbose=0,
+        horizon=1,
+        target="state",
     ):
         super().__init__(
             objective=objective,

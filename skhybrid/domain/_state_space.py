@@ -514,7 +514,7 @@ default=None
                 x = self._step(x, U[:, t], f)
         return xp.stack(outs, axis=1), x
 
-    def step(self, x, u, params=None):
+    def step(self, x, u, params=None, *, correction=None):
         """Advance states by one sample period, in NumPy or torch.
 
         Applies the discretised state equations (``time="discrete"``: ``rhs``
@@ -532,6 +532,14 @@ default=None
         params : dict or None, default=None
             Parameter values (floats, arrays or 0-d tensors) by name; ``None``
             uses the fitted ``params_``.
+        correction : callable or None, default=None
+            ``correction(x, u) -> (n, n_states)``, a term added to the state
+            equations: to ``dx/dt`` with ``time="continuous"`` (evaluated at
+            every stage of the integrator, so it is integrated with the
+            physics), to the next state with ``time="discrete"``. The seam a
+            hybrid uses to put a learned force inside the physics
+            (:class:`~skhybrid.hybrid.StateSpaceHybridRegressor` with
+            ``correction_form="rhs"``).
 
         Returns
         -------
@@ -549,7 +557,70 @@ default=None
         if params is None:
             check_is_fitted(self)
             params = self.params_
-        return self._step(x, u, self._rhs_fn(params, xp))
+        f = self._rhs_fn(params, xp)
+        if correction is not None:
+            rhs = f
+
+            def f(z, v):
+                return rhs(z, v) + correction(z, v)
+
+        return self._step(x, u, f)
+
+    def observed_indices(self):
+        """Indices of the measured states in ``state_names``, or None.
+
+        Returns
+        -------
+        indices : list of int or None
+            The states ``observed`` names, in its order; None when the outputs
+            come from an ``output`` function instead.
+
+        Raises
+        ------
+        ValueError
+            When ``state_names``, ``observed`` or ``output`` are invalid.
+        """
+        _, observed, _ = self._structure()
+        return None if observed is None else list(observed)
+
+    def initialize(self, X=None, y=None):
+        """Set the parameters to their initial values, without fitting them.
+
+        With windows ``X``, ``y`` this is :meth:`DomainModel.initialize
+        <skhybrid.domain.DomainModel.initialize>`. Without data (the records
+        of :meth:`fit_simulation` need none to set a state-space model's
+        parameters up) the structure and the parameters are checked, and
+        ``params_`` are the initial values (``params_std_`` and ``params_cov_``
+        NaN, ``result_`` None): the model then steps, observes and packs its
+        parameters, as a hybrid starting from ``params`` needs.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features) or None, default=None
+            Windows of ``n_steps`` time steps, or None.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs) or None, \
+default=None
+            Next outputs (with ``X``).
+
+        Returns
+        -------
+        self : object
+            The model at its initial parameters.
+        """
+        if X is not None:
+            return super().initialize(X, y)
+        self._validate_params()
+        _, observed, _ = self._structure()
+        init = self._initial_params()
+        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        self._spec = spec
+        if observed is not None:
+            self.n_outputs_ = len(observed)
+        self.result_ = None
+        self.params_ = spec.to_dict(spec.x0)
+        self.params_std_ = spec.to_dict(np.full(spec.n_free, np.nan), fixed_value=0.0)
+        self.params_cov_ = np.full((spec.n_free, spec.n_free), np.nan)
+        return self
 
     def observe(self, x, params=None):
         """The outputs of states ``x``: ``x[:, observed]`` or ``output(x)``.

@@ -1,6 +1,5 @@
 """HybridEnsembleRegressor: the parallel hybrid (the paper's section 3.2)."""
 
-import math
 from numbers import Integral, Real
 
 import numpy as np
@@ -11,6 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.hybrid._parameters import BoundedParameters
 from skhybrid.neural.engine import (
     check_device,
     check_time_ordered_rows,
@@ -526,21 +526,13 @@ class HybridModule(nn.Module):
         super().__init__()
         self.domain = domain
         self.net = net
-        t = _BoundTransform(theta0, lower, upper)
-        self.z = nn.Parameter(torch.as_tensor(t.z0, dtype=torch.float64))
+        self.params = BoundedParameters(theta0, lower, upper)
         for name, value in (
-            ("lower", t.lower),
-            ("upper", t.upper),
-            ("theta0", t.theta0),
-            ("a_side", t.a_side),
-            ("a_free", t.a_free),
             ("x_mean", x_mean),
             ("x_scale", x_scale),
             ("y_scale", y_scale),
         ):
             self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
-        for name in ("both", "lo_only", "hi_only"):
-            self.register_buffer(name, torch.as_tensor(getattr(t, name)))
 
     def theta(self):
         """The free physical parameters, inside their bounds.
@@ -548,21 +540,9 @@ class HybridModule(nn.Module):
         Returns
         -------
         theta : torch.Tensor of shape (n_free_values,)
-            Differentiable in ``z``.
+            Differentiable in the trained tensor ``params.z``.
         """
-        z = self.z
-        both = self.lower + (self.upper - self.lower) * torch.sigmoid(z)
-        soft = nn.functional.softplus(z) * self.a_side
-        free = self.theta0 + self.a_free * z
-        return torch.where(
-            self.both,
-            both,
-            torch.where(
-                self.lo_only,
-                self.lower + soft,
-                torch.where(self.hi_only, self.upper - soft, free),
-            ),
-        )
+        return self.params()
 
     def forward(self, X):
         """Physics plus network, in units of ``y_scale``.
@@ -631,52 +611,6 @@ class HybridRollout(nn.Module):
                 state = pred * self.hybrid.y_scale
                 X = self.layout.shift(X, state, U[:, k] if U.shape[2] else None)
         return torch.cat(preds, dim=1)
-
-
-class _BoundTransform:
-    """Map an unconstrained vector ``z`` to parameters inside their bounds."""
-
-    def __init__(self, theta0, lower, upper):
-        theta0 = np.asarray(theta0, dtype=float)
-        lower = np.asarray(lower, dtype=float)
-        upper = np.asarray(upper, dtype=float)
-        lo_ok, hi_ok = np.isfinite(lower), np.isfinite(upper)
-        self.lower = np.where(lo_ok, lower, 0.0)
-        self.upper = np.where(hi_ok, upper, 0.0)
-        self.both = lo_ok & hi_ok
-        self.lo_only = lo_ok & ~hi_ok
-        self.hi_only = hi_ok & ~lo_ok
-        self.theta0 = theta0
-        span = np.where(self.both, self.upper - self.lower, 1.0)
-        frac = np.clip((theta0 - self.lower) / span, 1e-6, 1 - 1e-6)
-        gap = np.where(
-            self.lo_only,
-            theta0 - self.lower,
-            np.where(self.hi_only, self.upper - theta0, 0),
-        )
-        # One-sided: theta = bound +/- a * softplus(z) with a = gap / log(2), z0 = 0.
-        self.a_side = np.maximum(gap, 1e-8) / math.log(2.0)
-        # Unbounded: theta = theta0 + a * z, a = |theta0| (1 where theta0 is 0).
-        self.a_free = np.where(np.abs(theta0) > 0, np.abs(theta0), 1.0)
-        self.z0 = np.where(self.both, np.log(frac / (1 - frac)), 0.0)
-
-    def to_theta(self, z, torch):
-        """Parameters from ``z`` in torch (the mapping :class:`HybridModule` uses)."""
-        f = lambda a: torch.as_tensor(a, dtype=z.dtype, device=z.device)  # noqa: E731
-        both = f(self.lower) + (f(self.upper) - f(self.lower)) * torch.sigmoid(z)
-        soft = torch.nn.functional.softplus(z) * f(self.a_side)
-        lo = f(self.lower) + soft
-        hi = f(self.upper) - soft
-        free = f(self.theta0) + f(self.a_free) * z
-        return torch.where(
-            f(self.both).bool(),
-            both,
-            torch.where(
-                f(self.lo_only).bool(),
-                lo,
-                torch.where(f(self.hi_only).bool(), hi, free),
-            ),
-        )
 
 
 def _std_dict(domain, std, free):

@@ -8,20 +8,30 @@ correction and physical parameters are trained jointly by the simulation error
 over sub-sequences of ``horizon`` steps.
 """
 
-import copy
-import math
 from numbers import Integral, Real
 
 import numpy as np
+import torch
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.domain._base import _ParameterSpec
-from skhybrid.domain._state_space import StateSpaceModel
-from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
-from skhybrid.hybrid._ensemble import _BoundTransform
-from skhybrid.neural._callbacks import check_divergence
+from skhybrid.domain import StateSpaceModel
+from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.hybrid._parameters import BoundedParameters
+from skhybrid.hybrid._state_space_module import (
+    EncoderModule,
+    StateSpaceHybridModule,
+    mlp,
+)
+from skhybrid.neural.engine import (
+    check_device,
+    check_sequence_objective,
+    record_training,
+    train_module,
+    training_constraints,
+    training_parameters_doc,
+)
 from skhybrid.preprocessing import split_steps
 from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -34,15 +44,6 @@ from skhybrid.utils._sklearn_compat import (
 from skhybrid.utils._transaction import TransactionalFitMixin, transactional
 
 __all__ = ["StateSpaceHybridRegressor"]
-
-
-def _mlp(n_in, n_out, hidden, torch):
-    layers, width = [], n_in
-    for size in hidden:
-        layers += [torch.nn.Linear(width, int(size)), torch.nn.Tanh()]
-        width = int(size)
-    layers.append(torch.nn.Linear(width, n_out))
-    return torch.nn.Sequential(*layers).double()
 
 
 def _state_indices(items, names, param):
@@ -102,12 +103,17 @@ class StateSpaceHybridRegressor(
     :class:`HybridEnsembleRegressor`) or held there. Before the joint training
     the encoder is fitted to the physics' least-squares state estimates of the
     training windows, so the joint training starts from the physics model.
-    Adam on mini-batches of ``batch_size`` sub-sequences (all batches of equal
-    size); early stopping on the free-run error over the last
+    Training runs on the networks' engine (:mod:`skhybrid.neural.engine`, the
+    protocol of :class:`~skhybrid.neural.BaseNeuralRegressor`): Adam on
+    mini-batches of ``batch_size`` sub-sequences, the learning rate reduced on
+    a plateau, early stopping on the free-run error over the last
     ``validation_fraction`` of every record, or on whole held-out records
     (``validation_split``), each simulated from its first ``n_init`` samples as
     :meth:`simulate` would, keeping the best epoch (the starting model
-    included).
+    included); the divergence check, ``callbacks``, ``verbose``, ``device``,
+    Ctrl-C (stops training, keeps the best weights, warns) and the objectives
+    with a Ljung-Box term (computed within each simulated sub-sequence) work as
+    for the networks. The model trains on ``device`` and simulates on the CPU.
 
     :meth:`fit` and :meth:`predict` follow scikit-learn's convention on windows
     of history (see :func:`~skhybrid.preprocessing.make_windows`): each row's
@@ -167,19 +173,6 @@ class StateSpaceHybridRegressor(
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
-    lr : float, default=1e-3
-        Learning rate of Adam.
-    max_epochs : int, default=100
-        Most passes over the training sub-sequences.
-    batch_size : int, default=32
-        Sub-sequences per mini-batch.
-    patience : int, default=10
-        Epochs without improvement of the validation loss before stopping.
-    validation_fraction : float, default=0.2
-        Fraction held out for early stopping: of every record's samples (at its
-        end) with ``validation_split="tail"``, of the records with
-        ``"records"``, of the rows in :meth:`fit`; ``0`` stops on the training
-        loss.
     validation_split : {"tail", "records"}, default="tail"
         What :meth:`fit_simulation` holds out for early stopping. ``"tail"``:
         the last ``validation_fraction`` of every record. ``"records"``: the
@@ -201,9 +194,7 @@ class StateSpaceHybridRegressor(
     encoder_epochs : int, default=50
         Epochs of the encoder's pre-training with
         ``physics_initial_state=False`` (0 to skip).
-    random_state : int, RandomState instance or None, default=None
-        Seeds the initial weights and the batch order; the global torch random
-        state is left untouched.
+    %(training_parameters)s
 
     Attributes
     ----------
@@ -224,12 +215,24 @@ class StateSpaceHybridRegressor(
         Scale of each state.
     step_scale_ : ndarray of shape (n_states,)
         Typical change of each state per sample (the unit of the correction).
+    module_ : StateSpaceHybridModule
+        Encoder, correction and physical parameters as one torch module (eval
+        mode, on the CPU).
+    net_ : skorch.NeuralNetRegressor
+        The skorch net of the joint training (its ``module_`` is ``module_``).
+    history_ : skorch.History
+        Per-epoch records: ``history_[:, "train_loss"]`` and, with a validation
+        part, ``history_[:, "valid_loss"]`` (simulation errors over the
+        outputs' scale, squared and averaged).
     loss_curve_ : list of float
-        Training loss after each epoch.
+        Training loss of each epoch (``history_[:, "train_loss"]``).
     validation_scores_ : list of float
-        Validation loss after each epoch (empty without a validation part).
+        Validation loss of each epoch (empty without a validation part).
     n_epochs_ : int
         Epochs run.
+    best_epoch_ : int
+        Epoch (1-based) whose weights were kept; 0 when no epoch beat the
+        starting model (the physics with a zero correction).
     n_features_in_ : int
         Columns of a row of ``X`` (``n_steps`` steps).
     n_outputs_ : int
@@ -283,16 +286,11 @@ class StateSpaceHybridRegressor(
         "encoder_absolute": ["boolean"],
         "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
-        "lr": [Interval(Real, 0, None, closed="neither")],
-        "max_epochs": [Interval(Integral, 1, None, closed="left")],
-        "batch_size": [Interval(Integral, 1, None, closed="left")],
-        "patience": [Interval(Integral, 1, None, closed="left")],
-        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
         "validation_split": [StrOptions({"tail", "records"})],
         "stride": [Interval(Integral, 1, None, closed="left")],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
-        "random_state": ["random_state"],
+        **training_constraints(),
     }
 
     def __init__(
@@ -311,16 +309,28 @@ class StateSpaceHybridRegressor(
         encoder_absolute=True,
         warm_start_physics=True,
         train_physics=True,
-        lr=1e-3,
-        max_epochs=100,
-        batch_size=32,
-        patience=10,
-        validation_fraction=0.2,
         validation_split="tail",
         stride=1,
         physics_initial_state=True,
         encoder_epochs=50,
+        objective="mse",
+        ljung_box_lags=20,
+        ljung_box_weight=1.0,
+        ljung_box_segment_length=None,
+        ljung_box_scaling="target",
+        mse_pretraining=False,
+        lr=0.001,
+        max_epochs=100,
+        batch_size=32,
+        validation_fraction=0.2,
+        target_scaling="per_output",
+        patience=10,
+        lr_patience=10,
+        lr_factor=0.5,
+        callbacks=None,
         random_state=None,
+        device="cpu",
+        verbose=0,
     ):
         self.physics = physics
         self.n_init = n_init
@@ -335,16 +345,28 @@ class StateSpaceHybridRegressor(
         self.encoder_absolute = encoder_absolute
         self.warm_start_physics = warm_start_physics
         self.train_physics = train_physics
-        self.lr = lr
-        self.max_epochs = max_epochs
-        self.batch_size = batch_size
-        self.patience = patience
-        self.validation_fraction = validation_fraction
         self.validation_split = validation_split
         self.stride = stride
         self.physics_initial_state = physics_initial_state
         self.encoder_epochs = encoder_epochs
+        self.objective = objective
+        self.ljung_box_lags = ljung_box_lags
+        self.ljung_box_weight = ljung_box_weight
+        self.ljung_box_segment_length = ljung_box_segment_length
+        self.ljung_box_scaling = ljung_box_scaling
+        self.mse_pretraining = mse_pretraining
+        self.lr = lr
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.validation_fraction = validation_fraction
+        self.target_scaling = target_scaling
+        self.patience = patience
+        self.lr_patience = lr_patience
+        self.lr_factor = lr_factor
+        self.callbacks = callbacks
         self.random_state = random_state
+        self.device = device
+        self.verbose = verbose
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -367,6 +389,7 @@ class StateSpaceHybridRegressor(
                 raise ValueError(
                     f"{name} must hold positive ints; got {name}={value!r}."
                 )
+        check_device(self.device)
         physics = self.physics
         names = list(physics.state_names)
         self._corr_idx = _state_indices(
@@ -382,26 +405,21 @@ class StateSpaceHybridRegressor(
 
     # -- set-up --------------------------------------------------------------------
     def _setup(self, physics, Y_win, U_win, states, steps, n_in_window):
-        """Scales, networks, parameter transform; ``Y_win`` etc. in NumPy."""
-        import torch
-
-        spec = physics._spec
-        self._spec = spec
+        """Scales and the torch module at the starting model (NumPy inputs)."""
         params = physics.params_
-        theta0 = (
-            np.concatenate([np.ravel(params[k]) for k in spec.free]).astype(float)
-            if spec.free
-            else np.zeros(0)
-        )
-        self._transform = _BoundTransform(theta0, spec.lower, spec.upper)
+        theta0 = physics.pack_params(params)
+        lower, upper = physics.free_bounds_
         self.params_init_ = dict(params)
         self.state_mean_ = states.mean(axis=0)
         self.state_scale_ = _safe_scale(states)
         self.step_scale_ = _safe_scale(steps) if len(steps) > 1 else self.state_scale_
-        _, observed, _ = physics._structure()
-        self._observed = observed
-        self.y_mean_ = Y_win.reshape(-1, Y_win.shape[-1]).mean(axis=0)
-        self.y_scale_ = _safe_scale(Y_win.reshape(-1, Y_win.shape[-1]))
+        observed = physics.observed_indices()
+        flat_y = Y_win.reshape(-1, Y_win.shape[-1])
+        self.y_mean_ = flat_y.mean(axis=0)
+        self.y_scale_ = _safe_scale(flat_y)
+        if self.target_scaling == "shared":
+            shared = np.sqrt(np.mean(self.y_scale_**2))
+            self.y_scale_ = np.full_like(self.y_scale_, shared)
         rel = Y_win[:, : n_in_window - 1] - Y_win[:, n_in_window - 1 : n_in_window]
         rel = rel.reshape(-1, Y_win.shape[-1])
         self.y_rel_scale_ = (
@@ -417,257 +435,135 @@ class StateSpaceHybridRegressor(
         n_enc = (n_in_window - 1) * (self.n_outputs_ + self.n_inputs_)
         n_enc += self.n_outputs_ if self.encoder_absolute else 0
         n_enc = max(n_enc, 1)
-        rng = check_random_state(self.random_state)
-        seed = int(rng.randint(np.iinfo(np.int32).max))
+        scales = {
+            "state_mean": self.state_mean_,
+            "state_scale": self.state_scale_,
+            "step_scale": self.step_scale_,
+            "y_mean": self.y_mean_,
+            "y_scale": self.y_scale_,
+            "y_rel_scale": self.y_rel_scale_,
+            "u_mean": self.u_mean_,
+            "u_scale": self.u_scale_,
+            "correction_scale": self.correction_scale
+            * self.step_scale_
+            * self._corr_mask,
+        }
         with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            self.encoder_ = _mlp(
-                n_enc, n_states, self.encoder_hidden_layer_sizes, torch
-            )
-            self.correction_ = _mlp(
+            torch.manual_seed(self._seeds[0])
+            encoder = mlp(n_enc, n_states, self.encoder_hidden_layer_sizes)
+            correction = mlp(
                 len(self._corr_idx) + self.n_inputs_,
                 n_states,
                 self.hidden_layer_sizes,
-                torch,
             )
-        self._z = torch.as_tensor(self._transform.z0.copy())
-        return rng
-
-    def _params(self, z):
-        import torch
-
-        from skhybrid.utils._array_api import get_namespace
-
-        theta = self._transform.to_theta(z, torch)
-        return self._spec.to_dict(theta, xp=get_namespace(theta))
-
-    def _encode(self, Yw, Uw, prior=None):
-        """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
-        import torch
-
-        n = Yw.shape[0]
-        y_scale = torch.as_tensor(self.y_scale_)
-        last = Yw[:, -1]
-        rel_scale = torch.as_tensor(self.y_rel_scale_)
-        parts = [((Yw[:, :-1] - last[:, None]) / rel_scale).reshape(n, -1)]
-        if self.encoder_absolute:
-            parts.append((last - torch.as_tensor(self.y_mean_)) / y_scale)
-        if self.n_inputs_ and Uw.shape[1]:
-            us = (Uw - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
-            parts.append(us.reshape(n, -1))
-        feats = torch.cat(parts, dim=1)
-        if feats.shape[1] == 0:
-            feats = torch.zeros((n, 1), dtype=Yw.dtype)
-        z = self.encoder_(feats)
-        base = torch.as_tensor(self.state_mean_).expand(n, -1)
-        scale = torch.as_tensor(self.state_scale_)
-        if prior is not None:
-            base = prior
-        if self._observed is not None:
-            if prior is None:
-                base = base.clone()
-                base[:, self._observed] = last
-            scale = scale.clone()
-            scale[self._observed] = torch.as_tensor(self.step_scale_)[self._observed]
-        return base + scale * z
-
-    def _correction(self, x, u):
-        """The correction network's output ``(n, n_states)`` at states ``x``."""
-        import torch
-
-        idx = self._corr_idx
-        xs = (x[:, idx] - torch.as_tensor(self.state_mean_[idx])) / torch.as_tensor(
-            self.state_scale_[idx]
-        )
-        feats = [xs]
-        if self.n_inputs_:
-            feats.append(
-                (u - torch.as_tensor(self.u_mean_)) / torch.as_tensor(self.u_scale_)
-            )
-        return self.correction_(torch.cat(feats, dim=1))
-
-    def _advance(self, x, u, params):
-        import torch
-
-        physics = self.physics_
-        scale = self.correction_scale * self.step_scale_ * self._corr_mask
-        if self.correction_form == "rhs" and physics.time == "continuous":
-            # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
-            # physics: one sample of the correction moves each state by about
-            # c * S, as in the "step" form.
-            f = physics._rhs_fn(params, torch)
-            rate = torch.as_tensor(scale / float(physics.dt))
-
-            def corrected(z, v):
-                return f(z, v) + rate * self._correction(z, v)
-
-            return physics._step(x, u, corrected)
-        x_next = physics.step(x, u, params)
-        return x_next + torch.as_tensor(scale) * self._correction(x, u)
-
-    def _rollout(self, Yw, Uw, U_future, params, prior=None):
-        """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
-
-        ``U_future[:, 0]`` acts from the window's last sample.
-        """
-        import torch
-
-        x = self._encode(Yw, Uw, prior)
-        outs = []
-        for t in range(U_future.shape[1]):
-            x = self._advance(x, U_future[:, t], params)
-            outs.append(self.physics_.observe(x, params))
-        return torch.stack(outs, dim=1)
-
-    # -- training ------------------------------------------------------------------
-    def _train(self, windows_train, windows_valid, rng, x_targets):
-        """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m), prior)``.
-
-        ``prior`` is the physics' state at the window's last sample ``(n,
-        n_states)`` (or None without ``physics_initial_state``).
-        """
-        import torch
-
-        k = self._k
-
-        def tensors(w):
-            return tuple(None if a is None else torch.as_tensor(a) for a in w)
-
-        Ytr, Utr, Ptr = tensors(windows_train)
-        has_valid = windows_valid is not None and len(windows_valid[0]) > 0
-        if has_valid:
-            Yva, Uva, Pva = tensors(windows_valid)
-        y_scale = torch.as_tensor(self.y_scale_)
-        n = Ytr.shape[0]
-        batch = min(self.batch_size, n)
-        n_batches = max(1, n // batch)
-
-        def batches():
-            perm = rng.permutation(n)
-            return [perm[i * batch : (i + 1) * batch] for i in range(n_batches)]
-
-        # 1. Encoder pre-training on the physics' state estimates.
         # The correction starts at zero (a random start would add a drift that
         # accumulates in free run), the encoder too where it corrects the
         # physics' estimate: training starts from the physics model.
-        zeroed = [self.correction_]
-        if self.physics_initial_state:
-            zeroed.append(self.encoder_)
+        zeroed = [correction] + ([encoder] if self.physics_initial_state else [])
         for module in zeroed:
             last = [m for m in module if isinstance(m, torch.nn.Linear)][-1]
             with torch.no_grad():
                 last.weight.zero_()
                 last.bias.zero_()
+        return StateSpaceHybridModule(
+            physics,
+            encoder,
+            correction,
+            BoundedParameters(theta0, lower, upper, trainable=self.train_physics),
+            n_init=n_in_window,
+            n_outputs=self.n_outputs_,
+            n_inputs=self.n_inputs_,
+            observed=observed,
+            corr_idx=self._corr_idx,
+            continuous_correction=(
+                self.correction_form == "rhs" and physics.time == "continuous"
+            ),
+            encoder_absolute=self.encoder_absolute,
+            has_prior=self.physics_initial_state,
+            scales=scales,
+            dt=physics.dt,
+        )
+
+    def _rollout(self, Yw, Uw, U_future, params=None, prior=None):
+        """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
+
+        ``U_future[:, 0]`` acts from the window's last sample; the fitted
+        module's physical parameters are used (``params`` is ignored).
+        """
+        return self.module_.rollout(Yw, Uw, U_future, prior)
+
+    # -- training ------------------------------------------------------------------
+    def _train(self, module, windows_train, windows_valid, x_targets):
+        """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m), prior)``.
+
+        ``prior`` is the physics' state at the window's last sample ``(n,
+        n_states)`` (or None without ``physics_initial_state``). Both phases run
+        on the shared engine (:func:`skhybrid.neural.engine.train_module`).
+        """
+        device = self.device
+        module = module.to(device)
+
+        def packed(w):
+            Y, U, P = (
+                None if a is None else torch.as_tensor(a, device=device) for a in w
+            )
+            return module.pack(Y, U, P), Y
+
+        Ztr, Ytr = packed(windows_train)
+        k = self._k
+        valid = None
+        if windows_valid is not None and len(windows_valid[0]) > 0:
+            Zva, Yva = packed(windows_valid)
+            valid = (Zva, Yva[:, k:] / module.y_scale)
+        # 1. Encoder pre-training on the physics' state estimates.
         if (
             not self.physics_initial_state
             and self.encoder_epochs
             and x_targets is not None
         ):
-            target = torch.as_tensor((x_targets - self.state_mean_) / self.state_scale_)
-            opt = torch.optim.Adam(self.encoder_.parameters(), lr=self.lr * 3)
-            mean, scale = (
-                torch.as_tensor(self.state_mean_),
-                torch.as_tensor(self.state_scale_),
+            target = torch.as_tensor(
+                (x_targets - self.state_mean_) / self.state_scale_, device=device
             )
-            for _ in range(self.encoder_epochs):
-                for idx in batches():
-                    idx = torch.as_tensor(idx)
-                    opt.zero_grad()
-                    pred = (
-                        self._encode(Ytr[idx, :k], Utr[idx, : k - 1]) - mean
-                    ) / scale
-                    loss = torch.mean((pred - target[idx]) ** 2)
-                    loss.backward()
-                    opt.step()
-
+            train_module(
+                self,
+                lambda: EncoderModule(module),
+                Ztr,
+                target,
+                seed=self._seeds[1],
+                overrides={
+                    "objective": "mse",
+                    "mse_pretraining": False,
+                    "lr": self.lr * 3,
+                    "max_epochs": self.encoder_epochs,
+                    "patience": None,
+                    "callbacks": None,
+                },
+            )
         # 2. Joint training by the simulation error.
-        z = torch.nn.Parameter(self._z.clone())
-        groups = [
-            {
-                "params": list(self.encoder_.parameters())
-                + list(self.correction_.parameters())
-            }
-        ]
-        if self.train_physics and z.numel():
-            groups.append({"params": [z]})
-        optimizer = torch.optim.Adam(groups, lr=self.lr)
-
-        def loss_on(Y, U, P):
-            params = self._params(z)
-            sim = self._rollout(Y[:, :k], U[:, : k - 1], U[:, k - 1 : -1], params, P)
-            return torch.mean(((sim - Y[:, k:]) / y_scale) ** 2)
-
-        def evaluate(Y, U, P):
-            with torch.no_grad():
-                score = float(loss_on(Y, U, P))
-            return score if math.isfinite(score) else math.inf
-
-        def pick(P, idx):
-            return None if P is None else P[idx]
-
-        self.loss_curve_, self.validation_scores_ = [], []
-        # The starting model (the physics, a small correction) is a candidate.
-        best = evaluate(Yva, Uva, Pva) if has_valid else evaluate(Ytr, Utr, Ptr)
-        best_state = (
-            z.detach().clone(),
-            copy.deepcopy(self.encoder_.state_dict()),
-            copy.deepcopy(self.correction_.state_dict()),
+        net = train_module(
+            self,
+            lambda: module,
+            Ztr,
+            Ytr[:, k:] / module.y_scale,
+            valid=valid,
+            sequences=True,
+            start_as_candidate=True,
+            seed=self._seeds[2],
         )
-        since_best = 0
-        first = None
-        for epoch in range(self.max_epochs):
-            total = 0.0
-            for idx in batches():
-                idx = torch.as_tensor(idx)
-                optimizer.zero_grad()
-                loss = loss_on(Ytr[idx], Utr[idx], pick(Ptr, idx))
-                if not torch.isfinite(loss):
-                    raise TrainingDivergedError(
-                        f"StateSpaceHybridRegressor: the simulation loss became "
-                        f"{float(loss)} in epoch {epoch + 1}; lower the learning "
-                        f"rate (got lr={self.lr}) or the horizon (got "
-                        f"horizon={self.horizon})."
-                    )
-                loss.backward()
-                optimizer.step()
-                total += float(loss.detach())
-            train_loss = total / n_batches
-            check_divergence(
-                train_loss,
-                first,
-                name="StateSpaceHybridRegressor's simulation loss",
-                epoch=epoch + 1,
-                lr=self.lr,
-            )
-            first = train_loss if first is None else first
-            self.loss_curve_.append(train_loss)
-            score = train_loss
-            if has_valid:
-                score = evaluate(Yva, Uva, Pva)
-                self.validation_scores_.append(score)
-            if score < best:
-                best, since_best = score, 0
-                best_state = (
-                    z.detach().clone(),
-                    copy.deepcopy(self.encoder_.state_dict()),
-                    copy.deepcopy(self.correction_.state_dict()),
-                )
-            else:
-                since_best += 1
-                if since_best >= self.patience:
-                    break
-        self.n_epochs_ = len(self.loss_curve_)
-        if best_state is not None:
-            self._z = best_state[0]
-            self.encoder_.load_state_dict(best_state[1])
-            self.correction_.load_state_dict(best_state[2])
-        for module in (self.encoder_, self.correction_):
-            module.eval()
-            for p in module.parameters():
-                p.requires_grad_(False)
-        theta = self._transform.to_theta(self._z, torch).numpy().copy()
-        self.params_ = self._spec.to_dict(theta)
-        self._params_t = self._params(self._z)
+        record_training(self, net)
+        module = net.module_.to("cpu").eval()
+        for p in module.parameters():
+            p.requires_grad_(False)
+        self.module_ = module
+        self.encoder_, self.correction_ = module.encoder, module.correction
+        self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
+        self.validation_scores_ = (
+            [float(v) for v in net.history[:, "valid_loss"]] if valid else []
+        )
+        with torch.no_grad():
+            theta = module.params().numpy().copy()
+        self.params_ = self.physics_.unpack_params(theta)
+        self._params_t = module.physical_params()
 
     def _states_along(self, physics, x0, U, n_times):
         """Physics states ``(n, n_times, n_states)`` from ``x0`` under ``U``."""
@@ -730,6 +626,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         n_inputs = _check_widths(U_list, "inputs")
         n_outputs = _check_widths(Y_list, "outputs")
         k, T = self.n_init, self.horizon
+        check_sequence_objective(self, T)
         stride = self.stride
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
             if len(u) != len(y):
@@ -796,12 +693,10 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         """Warm-start ``physics`` by ``method(a, b)``, or set it up at its params."""
         if self.warm_start_physics:
             getattr(physics, method)(a, b)
-            return
-        physics._structure()
-        init = physics._initial_params()
-        spec = _ParameterSpec(init, physics.fixed, physics._resolved_bounds(init))
-        physics._spec = spec
-        physics.params_ = spec.to_dict(spec.x0)
+        elif method == "fit":
+            physics.initialize(a, b)
+        else:
+            physics.initialize()
 
     def _fit_windows(self, physics, Ytr, Utr, valid, k, n_outputs, n_inputs):
         self.physics_ = physics
@@ -814,13 +709,15 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         if flat.size == 0:
             flat = np.zeros((1, states.shape[-1]))
         x_targets = states[:, k - 1]
-        rng = self._setup(physics, Ytr, Utr, flat, steps, k)
+        rng = check_random_state(self.random_state)
+        self._seeds = [int(s) for s in rng.randint(np.iinfo(np.int32).max, size=3)]
+        module = self._setup(physics, Ytr, Utr, flat, steps, k)
         if not np.all(good):
             x_targets = np.where(good[:, None], x_targets, self.state_mean_)
         prior = x_targets if self.physics_initial_state else None
         if valid is not None:
             valid = (*valid, self._prior(valid[0][:, :k], valid[1][:, :k]))
-        self._train((Ytr, Utr, prior), valid, rng, x_targets)
+        self._train(module, (Ytr, Utr, prior), valid, x_targets)
         return self
 
     # -- windows -------------------------------------------------------------------
@@ -871,6 +768,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 f"{n_outputs} output(s); each step is [outputs..., inputs...]."
             )
         n_features = X.shape[1]
+        check_sequence_objective(self, 1)
         physics = clone(self.physics).set_params(n_steps=self.n_steps)
         self._start_physics(physics, "fit", X, y)
         Ys, Us = self._split(X, n_outputs)
@@ -1017,3 +915,30 @@ n_init, n_outputs) or list of 2-D arrays
                 )
             out[idx, s:n] = sim
         return _pack(out, lengths, form)
+
+
+_SEQUENCE_DEFAULTS = {
+    "lr": (
+        1e-3,
+        (
+            "A tenth of the row networks' default: the gradient runs back through "
+            "``horizon`` steps of the dynamics and into the physical parameters."
+        ),
+    ),
+    "max_epochs": (
+        100,
+        (
+            "An epoch passes over every sub-sequence, each simulated over "
+            "``horizon`` steps: far more work than an epoch over rows."
+        ),
+    ),
+    "batch_size": (
+        32,
+        "A sample is a sub-sequence of ``n_init + horizon`` samples, not a row.",
+    ),
+    "patience": (10, "Epochs are longer than over rows (see ``max_epochs``)."),
+}
+
+StateSpaceHybridRegressor.__doc__ = StateSpaceHybridRegressor.__doc__.replace(
+    "    %(training_parameters)s", training_parameters_doc(_SEQUENCE_DEFAULTS)
+)

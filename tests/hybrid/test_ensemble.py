@@ -251,7 +251,7 @@ def test_physics_parameters_are_parameters_of_one_module(fitted):
 
     module = fitted.net_.module_
     names = dict(module.named_parameters())
-    assert "z" in names and any(k.startswith("net.") for k in names)
+    assert "params.z" in names and any(k.startswith("net.") for k in names)
     with torch.no_grad():
         theta = module.theta().numpy()
     assert_allclose(theta, fitted.domain_.pack_params(fitted.params_))

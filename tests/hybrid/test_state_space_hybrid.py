@@ -268,14 +268,15 @@ def test_rhs_correction_is_integrated_with_the_physics():
     ).fit_simulation(u, y)
     x = rng.normal(size=(5, 2))
     with torch.no_grad():
-        got = model._advance(
+        got = model.module_.advance(
             torch.as_tensor(x), torch.as_tensor(u[0, :5]), model._params_t
         ).numpy()
     np.testing.assert_allclose(got, reference.step(x, u[0, :5]), rtol=1e-12)
-    # The "step" form adds the same correction after the step instead.
-    model.set_params(correction_form="step")
+    # The "step" form adds the same correction after the step instead (the
+    # fitted module holds the form it was built with).
+    model.module_.continuous_correction = False
     with torch.no_grad():
-        after = model._advance(
+        after = model.module_.advance(
             torch.as_tensor(x), torch.as_tensor(u[0, :5]), model._params_t
         ).numpy()
     expected = (
@@ -297,9 +298,9 @@ def test_validation_split_records_holds_out_whole_records(monkeypatch):
     seen = {}
     original = StateSpaceHybridRegressor._train
 
-    def spy(self, windows_train, windows_valid, *args):
+    def spy(self, module, windows_train, windows_valid, *args):
         seen["train"], seen["valid"] = windows_train[0], windows_valid[0]
-        return original(self, windows_train, windows_valid, *args)
+        return original(self, module, windows_train, windows_valid, *args)
 
     monkeypatch.setattr(StateSpaceHybridRegressor, "_train", spy)
     _model(validation_split="records", validation_fraction=0.25).fit_simulation(u, y)

@@ -1,0 +1,252 @@
+"""The torch module of the state-space hybrid: encoder, physics, correction."""
+
+import torch
+from torch import nn
+
+__all__ = ["EncoderModule", "StateSpaceHybridModule", "mlp"]
+
+
+def mlp(n_in, n_out, hidden):
+    """A float64 perceptron with tanh hidden layers.
+
+    Parameters
+    ----------
+    n_in, n_out : int
+        Input and output widths.
+    hidden : sequence of int
+        Hidden layer widths.
+
+    Returns
+    -------
+    module : torch.nn.Sequential
+        Freshly initialised from torch's global random generator.
+    """
+    layers, width = [], n_in
+    for size in hidden:
+        layers += [nn.Linear(width, int(size)), nn.Tanh()]
+        width = int(size)
+    layers.append(nn.Linear(width, n_out))
+    return nn.Sequential(*layers).double()
+
+
+class StateSpaceHybridModule(nn.Module):
+    """Encoder, physics and correction as one module, trained on simulated horizons.
+
+    ``forward(Z)`` reads packed sub-sequences (see :meth:`pack`): the first
+    ``n_init`` samples are the encoder's window, the model simulates the rest
+    and returns the simulated outputs divided by ``y_scale``, ``(n, T,
+    n_outputs)``, the targets being the measured outputs after the window
+    divided by the same scale.
+
+    Parameters
+    ----------
+    physics : skhybrid.domain.StateSpaceModel
+        The physics at its starting parameters (its public
+        :meth:`~skhybrid.domain.StateSpaceModel.step`,
+        :meth:`~skhybrid.domain.StateSpaceModel.observe` and
+        :meth:`~skhybrid.domain.DomainModel.unpack_params` run in torch).
+    encoder, correction : torch.nn.Module
+        The encoder (window features to standardised state) and the state
+        correction (standardised states and inputs to a correction per state).
+    parameters : BoundedParameters
+        The free physical parameters.
+    n_init : int
+        Samples of the encoder's window.
+    n_outputs, n_inputs : int
+        Widths of the records.
+    observed : list of int or None
+        Indices of the measured states (None: an output function).
+    corr_idx : list of int
+        States the correction reads.
+    continuous_correction : bool
+        Whether the correction enters the continuous-time equations (``rhs``).
+    encoder_absolute : bool
+        Whether the encoder reads the window's absolute output level.
+    has_prior : bool
+        Whether a packed sample ends in the physics' state estimate, which the
+        encoder corrects.
+    scales : dict of ndarray
+        ``state_mean``, ``state_scale``, ``step_scale``, ``y_mean``,
+        ``y_scale``, ``y_rel_scale``, ``u_mean``, ``u_scale`` and
+        ``correction_scale`` (the correction's unit per state, 0 where a state
+        is not corrected), registered as buffers.
+    dt : float or None
+        The sample period (for the continuous correction's rate).
+    """
+
+    def __init__(
+        self,
+        physics,
+        encoder,
+        correction,
+        parameters,
+        *,
+        n_init,
+        n_outputs,
+        n_inputs,
+        observed,
+        corr_idx,
+        continuous_correction,
+        encoder_absolute,
+        has_prior,
+        scales,
+        dt,
+    ):
+        super().__init__()
+        self.physics = physics
+        self.encoder = encoder
+        self.correction = correction
+        self.params = parameters
+        self.n_init = n_init
+        self.n_outputs = n_outputs
+        self.n_inputs = n_inputs
+        self.observed = observed
+        self.corr_idx = list(corr_idx)
+        self.continuous_correction = continuous_correction
+        self.encoder_absolute = encoder_absolute
+        self.has_prior = has_prior
+        self.dt = dt
+        for name, value in scales.items():
+            self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
+
+    # -- the model -----------------------------------------------------------------
+    def physical_params(self):
+        """Every physical parameter by name, free ones differentiable.
+
+        Returns
+        -------
+        params : dict
+            Tensors of the free parameters, values of the fixed ones.
+        """
+        return self.physics.unpack_params(self.params())
+
+    def encode(self, Yw, Uw, prior=None):
+        """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
+        n = Yw.shape[0]
+        last = Yw[:, -1]
+        parts = [((Yw[:, :-1] - last[:, None]) / self.y_rel_scale).reshape(n, -1)]
+        if self.encoder_absolute:
+            parts.append((last - self.y_mean) / self.y_scale)
+        if self.n_inputs and Uw.shape[1]:
+            us = (Uw - self.u_mean) / self.u_scale
+            parts.append(us.reshape(n, -1))
+        feats = torch.cat(parts, dim=1)
+        if feats.shape[1] == 0:
+            feats = torch.zeros((n, 1), dtype=Yw.dtype, device=Yw.device)
+        z = self.encoder(feats)
+        base = self.state_mean.expand(n, -1) if prior is None else prior
+        scale = self.state_scale
+        if self.observed is not None:
+            if prior is None:
+                base = base.clone()
+                base[:, self.observed] = last
+            scale = scale.clone()
+            scale[self.observed] = self.step_scale[self.observed]
+        return base + scale * z
+
+    def correct(self, x, u):
+        """The correction network's output ``(n, n_states)`` at states ``x``."""
+        idx = self.corr_idx
+        feats = [(x[:, idx] - self.state_mean[idx]) / self.state_scale[idx]]
+        if self.n_inputs:
+            feats.append((u - self.u_mean) / self.u_scale)
+        return self.correction(torch.cat(feats, dim=1))
+
+    def advance(self, x, u, params):
+        """The state one sample after ``x`` under ``u``, corrected."""
+        if self.continuous_correction:
+            # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
+            # physics: one sample of the correction moves each state by about
+            # c * S, as in the "step" form.
+            rate = self.correction_scale / float(self.dt)
+            return self.physics.step(
+                x, u, params, correction=lambda z, v: rate * self.correct(z, v)
+            )
+        x_next = self.physics.step(x, u, params)
+        return x_next + self.correction_scale * self.correct(x, u)
+
+    def rollout(self, Yw, Uw, U_future, prior=None, params=None):
+        """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
+
+        ``U_future[:, 0]`` acts from the window's last sample.
+        """
+        params = self.physical_params() if params is None else params
+        x = self.encode(Yw, Uw, prior)
+        outs = []
+        for t in range(U_future.shape[1]):
+            x = self.advance(x, U_future[:, t], params)
+            outs.append(self.physics.observe(x, params))
+        return torch.stack(outs, dim=1)
+
+    # -- training --------------------------------------------------------------
+    def pack(self, Y, U, prior=None):
+        """Pack sub-sequences into the rows :meth:`forward` reads.
+
+        Parameters
+        ----------
+        Y : torch.Tensor of shape (n, L, n_outputs)
+            Measured outputs: the window's ``n_init`` samples, then the targets.
+        U : torch.Tensor of shape (n, L, n_inputs)
+            Inputs aligned with ``Y``.
+        prior : torch.Tensor of shape (n, n_states) or None
+            The physics' state at the window's last sample (with ``has_prior``).
+
+        Returns
+        -------
+        Z : torch.Tensor of shape (n, L * (n_outputs + n_inputs) [+ n_states])
+        """
+        parts = [Y.reshape(len(Y), -1), U.reshape(len(U), -1)]
+        if self.has_prior:
+            parts.append(prior)
+        return torch.cat(parts, dim=1)
+
+    def unpack(self, Z):
+        """``(Y, U, prior)`` from packed rows (see :meth:`pack`)."""
+        n_states = self.state_mean.shape[0] if self.has_prior else 0
+        width = self.n_outputs + self.n_inputs
+        L = (Z.shape[1] - n_states) // width
+        Y = Z[:, : L * self.n_outputs].reshape(len(Z), L, self.n_outputs)
+        U = Z[:, L * self.n_outputs : L * width].reshape(len(Z), L, self.n_inputs)
+        prior = Z[:, L * width :] if self.has_prior else None
+        return Y, U, prior
+
+    def forward(self, Z):
+        """Simulated outputs after each packed window, divided by ``y_scale``.
+
+        Parameters
+        ----------
+        Z : torch.Tensor of shape (n, width)
+            Packed sub-sequences (:meth:`pack`).
+
+        Returns
+        -------
+        y : torch.Tensor of shape (n, L - n_init, n_outputs)
+        """
+        Y, U, prior = self.unpack(Z)
+        k = self.n_init
+        sim = self.rollout(Y[:, :k], U[:, : k - 1], U[:, k - 1 : -1], prior)
+        return sim / self.y_scale
+
+
+class EncoderModule(nn.Module):
+    """The encoder alone on packed windows, for its pre-training.
+
+    ``forward(Z)`` returns the standardised state estimate at the end of each
+    packed window (the sub-sequences of :meth:`StateSpaceHybridModule.pack`).
+
+    Parameters
+    ----------
+    hybrid : StateSpaceHybridModule
+        Whose encoder is trained (shared, not copied).
+    """
+
+    def __init__(self, hybrid):
+        super().__init__()
+        self.hybrid = hybrid
+
+    def forward(self, Z):
+        h = self.hybrid
+        Y, U, _ = h.unpack(Z)
+        k = h.n_init
+        state = h.encode(Y[:, :k], U[:, : k - 1])
+        return (state - h.state_mean) / h.state_scale

@@ -9,7 +9,7 @@ from sklearn.utils import Bunch
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from skhybrid.domain._base import DomainModel
+from skhybrid.domain import DomainModel
 from skhybrid.hybrid._parameters import BoundedParameters
 from skhybrid.neural.engine import (
     check_device,

@@ -47,6 +47,11 @@ class BatchIterator:
         ``segment_count`` computes the MSE on the shuffled rows and the
         autocovariances within each segment). Ignored without ``shuffle`` or
         with fewer than ``2 * segment_length`` rows.
+    at_least_batch_size : bool, default=False
+        With ``contiguous=False``: spread the rows over ``max(1, n //
+        batch_size)`` batches instead, each of at least ``batch_size`` rows
+        (the batches of the sequence models, whose samples are long simulated
+        sub-sequences: a rounded-up batch count would add a pass of work).
     """
 
     def __init__(
@@ -56,19 +61,21 @@ class BatchIterator:
         shuffle=False,
         contiguous=False,
         segment_length=None,
+        at_least_batch_size=False,
     ):
         self.dataset = dataset
         self.batch_size = batch_size
         self.shuffle = shuffle
         self.contiguous = contiguous
         self.segment_length = segment_length
+        self.at_least_batch_size = at_least_batch_size
 
     def _segmented(self, n):
         m = self.segment_length
         return bool(self.shuffle and m and n >= 2 * m)
 
     def _bounds(self, n, contiguous):
-        if contiguous:
+        if contiguous or self.at_least_batch_size:
             n_blocks = max(1, n // self.batch_size)
         else:
             n_blocks = max(1, math.ceil(n / self.batch_size))

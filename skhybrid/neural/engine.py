@@ -621,7 +621,10 @@ def train_module(
     }
     if sequences:
         criterion = criterion or SequenceObjectiveLoss
-        iterator = {"iterator_train__contiguous": False}
+        iterator = {
+            "iterator_train__contiguous": False,
+            "iterator_train__at_least_batch_size": True,
+        }
         row_segment = None
     else:
         criterion = criterion or ObjectiveLoss

@@ -39,9 +39,13 @@ from skhybrid.utils._sklearn_compat import Interval, StrOptions
 
 __all__ = [
     "TRAINING_PARAMETERS",
+    "TrainingParameter",
     "check_device",
+    "check_sequence_objective",
     "check_time_ordered_rows",
+    "draw_seed",
     "record_training",
+    "rng_devices",
     "train_module",
     "training_constraints",
     "training_parameters_doc",
@@ -58,7 +62,7 @@ class TrainingParameter:
     default : object
         The default value.
     constraints : list
-        scikit-learn parameter constraints.
+        The scikit-learn parameter constraints.
     kind : str
         The type line of its numpydoc entry (before ``, default=``).
     doc : str

@@ -23,6 +23,7 @@ __all__ = ["all_displays", "all_estimators", "all_functions"]
 PUBLIC_MODULES = (
     "domain",
     "neural",
+    "neural.engine",
     "hybrid",
     "simulation",
     "losses",

@@ -148,6 +148,9 @@ class HybridEnsembleRegressor(
         Number of epochs run.
     best_epoch_ : int
         Epoch (1-based) whose state was kept: the lowest monitored loss.
+    interrupted_ : bool
+        Whether a Ctrl-C cut the training short (the best epoch so far was
+        kept, and a ``UserWarning`` said so).
     n_features_in_ : int
         Number of columns of ``X``.
     n_outputs_ : int

@@ -233,6 +233,9 @@ class StateSpaceHybridRegressor(
     best_epoch_ : int
         Epoch (1-based) whose weights were kept; 0 when no epoch beat the
         starting model (the physics with a zero correction).
+    interrupted_ : bool
+        Whether a Ctrl-C cut the training short (the best epoch so far was
+        kept, and a ``UserWarning`` said so).
     n_features_in_ : int
         Columns of a row of ``X`` (``n_steps`` steps).
     n_outputs_ : int

@@ -78,6 +78,9 @@ FITTED_ATTRIBUTES_DOC = """\
         Epochs completed.
     best_epoch_ : int
         Epoch (1-based) whose weights were kept: the lowest monitored loss.
+    interrupted_ : bool
+        Whether a Ctrl-C cut the training short (the best epoch so far was
+        kept, and a ``UserWarning`` said so).
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     n_outputs_ : int

@@ -379,7 +379,14 @@ def training_callbacks(est, monitor):
 
 
 def record_training(est, net):
-    """Set ``net_``, ``history_``, ``n_epochs_``, ``best_epoch_``; warn on Ctrl-C.
+    """Set ``net_``, ``history_``, ``n_epochs_``, ``best_epoch_``, ``interrupted_``.
+
+    The interrupt semantics of every network in skhybrid: a Ctrl-C during
+    training stops it, the weights of the best epoch so far are kept, the fit
+    returns a usable model with ``interrupted_ = True`` and a ``UserWarning``
+    says so; on a refit the previous model is replaced by the one cut short
+    (as skorch does). Early stopping, which skorch implements with the same
+    exception, is not an interrupt.
 
     Parameters
     ----------
@@ -393,7 +400,8 @@ def record_training(est, net):
     est.history_ = net.history
     est.n_epochs_ = sum("train_loss" in row for row in net.history)
     est.best_epoch_ = int(dict(net.callbacks_)["early_stopping"].best_epoch_)
-    if getattr(net, "interrupted_", False):
+    est.interrupted_ = bool(getattr(net, "interrupted_", False))
+    if est.interrupted_:
         warnings.warn(
             f"training of {type(est).__name__} was interrupted (Ctrl-C) after "
             f"{est.n_epochs_} epochs; the model keeps the weights of its best "

@@ -233,3 +233,47 @@ def test_state_space_hybrid_same_seed_same_model():
         a.fit_simulation(u, y).simulate(u, y[:, :4]),
         b.fit_simulation(u, y).simulate(u, y[:, :4]),
     )
+
+
+def _rows(n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, (n, 2))
+    return X, np.sin(2 * X[:, 0]) + X[:, 1]
+
+
+def _interruptible(cls, callbacks):
+    from skhybrid.domain import ParametricModel
+
+    common = dict(max_epochs=30, patience=None, callbacks=callbacks, random_state=0)
+    if cls is HybridEnsembleRegressor:
+
+        def line(X, *, a, xp=np):
+            return a * X[:, 1]
+
+        return cls(ParametricModel(line, {"a": 0.5}), DenseRegressor((8,)), **common)
+    if cls is StateSpaceHybridRegressor:
+        return cls(_physics(), n_init=4, horizon=10, hidden_layer_sizes=(8,), **common)
+    extra = {"n_steps": 1} if cls is RNNRegressor else {}
+    return cls(**extra, **common).set_params(
+        **{"hidden_layer_sizes": (8,)} if cls is not RNNRegressor else {}
+    )
+
+
+def _fit(model):
+    if isinstance(model, StateSpaceHybridRegressor):
+        u, y = _records()
+        return model.fit_simulation(u, y)
+    return model.fit(*_rows())
+
+
+@pytest.mark.parametrize("cls", TRAINERS, ids=lambda c: c.__name__)
+def test_ctrl_c_semantics_are_the_same_for_every_trainer(cls):
+    done = _fit(_interruptible(cls, None))
+    assert done.interrupted_ is False
+    # A refit cut short by Ctrl-C replaces the previous model with the one cut
+    # short (skorch's semantics), says so, and is usable.
+    with pytest.warns(UserWarning, match="interrupted"):
+        _fit(done.set_params(callbacks=[InterruptAt(2)]))
+    assert done.interrupted_ is True
+    assert done.n_epochs_ == 2
+    assert 0 <= done.best_epoch_ <= 2

@@ -689,8 +689,7 @@ class StateSpaceHybridRegressor(
 
     def _window_targets(self, physics, Y, U, k):
         """Physics' state estimates at the last sample of each window."""
-        structure = physics._structure()
-        x0 = physics._estimate_x0(Y[:, :k], U[:, :k], physics.params_, structure)
+        x0 = physics.estimate_initial_state(U[:, :k], Y[:, :k])
         states = self._states_along(physics, x0, U, k)
         good = np.all(np.isfinite(states), axis=(1, 2))
         return states, good

@@ -1165,7 +1165,10 @@ n_init, n_outputs) or list of 2-D arrays
                 "fit_simulation, which fits it to the simulation residuals."
             )
         U_list, Y_list, form = check_trajectories(
-            inputs, initial, min_init=self.n_steps
+            inputs,
+            initial,
+            min_init=self.n_steps,
+            window_name=f"the model's window (n_steps={self.n_steps})",
         )
         self._check_records(U_list, Y_list, "initial")
         x0 = self._estimate_records(
@@ -1185,7 +1188,8 @@ n_init, n_outputs) or list of 2-D arrays
         draws = np.empty((n_paths, n_traj, n_max, n_out))
         for p in range(n_paths):
             for i in range(n_traj):
-                draws[p, i] = np.reshape(noise.sample(n_max, random_state=rng), (n_max, n_out))
+                draw = noise.sample(n_max, random_state=rng)
+                draws[p, i] = np.reshape(draw, (n_max, n_out))
         paths = out[None] + draws
         for i, y in enumerate(Y_list):
             paths[:, i, : len(y)] = y

@@ -105,7 +105,8 @@ def fit_initial_states(residuals, x0, *, rel_step=None, max_iter=MAX_ITER):
     >>> from skhybrid.simulation import fit_initial_states
     >>> targets = np.array([[1.0, 2.0], [3.0, -1.0]])
     >>> def residuals(Z, index):
-    ...     return np.hstack([Z, Z**3]) - np.hstack([targets[index], targets[index] ** 3])
+    ...     T = targets[index]
+    ...     return np.hstack([Z - T, Z**3 - T**3])
     >>> z, converged = fit_initial_states(residuals, np.zeros((2, 2)) + 0.5)
     >>> np.round(z, 6).tolist(), converged.tolist()
     ([[1.0, 2.0], [3.0, -1.0]], [True, True])

@@ -68,7 +68,9 @@ def _check_finite(arrays, name):
             )
 
 
-def check_trajectories(inputs, initial, *, initial_name="initial", min_init=1):
+def check_trajectories(
+    inputs, initial, *, initial_name="initial", min_init=1, window_name="the model"
+):
     """Validate the trajectories given to a ``simulate`` or initial-state estimate.
 
     The one validation of every estimator's :meth:`simulate` and of
@@ -89,6 +91,9 @@ n_states) or list of (n_init_i, n_states) arrays
         Name of ``initial`` in the error messages.
     min_init : int, default=1
         Fewest measured time steps a trajectory needs (the model's window).
+    window_name : str, default="the model"
+        What needs ``min_init`` steps, in the error message (for example
+        ``"the model's window (n_steps=5)"``).
 
     Returns
     -------
@@ -126,9 +131,8 @@ n_states) or list of (n_init_i, n_states) arrays
     for i, (u, y) in enumerate(zip(U_list, Y0_list, strict=True)):
         if len(y) < min_init:
             raise ValueError(
-                f"{initial_name}[{i}] holds {len(y)} time steps; the model reads "
-                f"windows of {min_init}, so at least {min_init} measured steps "
-                f"must start trajectory {i}."
+                f"{initial_name}[{i}] holds {len(y)} time steps; {window_name} "
+                f"needs at least {min_init} measured steps to start trajectory {i}."
             )
         if len(y) > len(u):
             raise ValueError(

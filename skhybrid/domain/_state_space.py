@@ -1194,9 +1194,13 @@ n_init, n_outputs) or list of 2-D arrays
         for i, y in enumerate(Y_list):
             paths[:, i, : len(y)] = y
         if return_std:
+            mean, std = paths.mean(axis=0), paths.std(axis=0)
+            for i, y in enumerate(Y_list):
+                # Exactly the measurements, not their mean's rounding.
+                mean[i, : len(y)], std[i, : len(y)] = y, 0.0
             return (
-                pack_trajectories(paths.mean(axis=0), lengths, form),
-                pack_trajectories(paths.std(axis=0), lengths, form),
+                pack_trajectories(mean, lengths, form),
+                pack_trajectories(std, lengths, form),
             )
         return pack_trajectories(paths, lengths, form)
 

@@ -58,8 +58,9 @@ class StateSpaceModel(DomainModel):
     record (a window of history, or the initialisation window of a simulation)
     starts, the observed states start at their measured values and the latent ones
     are estimated by least squares: the initial latent state whose simulated
-    outputs over the window match the measured ones best (a batched
-    Levenberg-Marquardt iteration, one per record).
+    outputs over the window match the measured ones best (one least-squares
+    problem per record, solved by :func:`~skhybrid.simulation.fit_initial_states`,
+    the package's one initial-state solver).
 
     Two ways to fit the parameters:
 

@@ -197,9 +197,9 @@ def _predict_rows(predict, X, check, t, active):
                 raise SimulationDivergedError(
                     f"the simulation diverged at time step {t}: trajectory "
                     f"{active[i]} reached a state the model cannot evaluate "
-                    f"({first}). The model is unstable in free run from this "
-                    "initial window (check the inputs' range against the "
-                    "training data)."
+                    f"({str(first).rstrip('.')}). The model is unstable in free "
+                    "run from this initial window (check the inputs' range "
+                    "against the training data)."
                 ) from first
             rows.append(None)
     width = next((len(r) for r in rows if r is not None), 1)

@@ -14,7 +14,7 @@ import pytest
 from sklearn.base import clone
 
 from skhybrid.datasets import make_pendulum
-from skhybrid.domain import LinearStateSpaceModel, ParametricModel, StateSpaceModel
+from skhybrid.domain import ParametricModel, StateSpaceModel
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.hybrid import (
     AutoRegressiveNoise,
@@ -293,7 +293,8 @@ def test_state_space_model_bands_from_simulation_residuals(noise):
     assert not hasattr(noise, "n_outputs_")  # the parameter is not fitted in place
     paths = model.simulate(U, Y[:, :20], n_samples=7, random_state=0)
     assert paths.shape == (7, *Y.shape)
-    np.testing.assert_array_equal(paths[:, :, :20], np.broadcast_to(Y[:, :20], (7, 4, 20, 1)))
+    measured = np.broadcast_to(Y[:, :20], (7, *Y[:, :20].shape))
+    np.testing.assert_array_equal(paths[:, :, :20], measured)
     again = model.simulate(U, Y[:, :20], n_samples=7, random_state=0)
     np.testing.assert_array_equal(paths, again)
     mean, std = model.simulate(U, Y[:, :20], return_std=True, random_state=0)

@@ -26,7 +26,6 @@ from skhybrid.simulation import (
     fit_initial_states,
     pack_trajectories,
 )
-from skhybrid.simulation._simulate import _as_list, _check_widths
 from skhybrid.utils._array_api import get_namespace, is_torch
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
@@ -745,8 +744,8 @@ n_outputs) or list of 2-D arrays
                 f"inputs holds {len(U_list)} record(s) but {y_name} holds "
                 f"{len(Y_list)}; give one {y_name} array per inputs array."
             )
-        n_inputs = _check_widths(U_list, "inputs")
-        n_outputs = _check_widths(Y_list, y_name)
+        # check_trajectories has checked that every record has these widths.
+        n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
         for name, expected, got in (
             ("input", getattr(self, "n_inputs_", None), n_inputs),
             ("output", getattr(self, "n_outputs_", None), n_outputs),
@@ -867,15 +866,9 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_simulation(self, inputs, outputs):
         structure = self._structure()
-        U_list, _ = _as_list(inputs, "inputs")
-        Y_list, _ = _as_list(outputs, "outputs")
-        for name, arrays in (("inputs", U_list), ("outputs", Y_list)):
-            for i, a in enumerate(arrays):
-                if not np.all(np.isfinite(a)):
-                    raise ValueError(
-                        f"{name}[{i}] holds NaN or infinite values; records must be "
-                        "finite."
-                    )
+        U_list, Y_list, _ = check_trajectories(
+            inputs, outputs, initial_name="outputs"
+        )
         for attr in ("n_inputs_", "n_outputs_", "feature_names_in_"):
             self.__dict__.pop(attr, None)
         n_inputs, n_outputs = self._check_records(U_list, Y_list, "outputs")
@@ -1058,7 +1051,7 @@ n_inputs) or list of 2-D arrays
             container form of ``inputs``; row 0 is the output of ``states``.
         """
         n_states, _, _ = self._check_fitted_structure()
-        U_list, form = _as_list(inputs, "inputs")
+        U_list, _, form = check_trajectories(inputs, None)
         x0 = np.atleast_2d(np.asarray(states, dtype=float))
         if x0.shape != (len(U_list), n_states):
             raise ValueError(

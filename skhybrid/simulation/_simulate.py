@@ -85,8 +85,9 @@ def check_trajectories(
 n_inputs) or list of (n_times_i, n_inputs) arrays
         Inputs over the whole experiment from time 0.
     initial : array-like of shape (n_init, n_states), (n_trajectories, n_init, \
-n_states) or list of (n_init_i, n_states) arrays
-        Measured states (or outputs) of the first time steps.
+n_states) or list of (n_init_i, n_states) arrays, or None
+        Measured states (or outputs) of the first time steps; None checks the
+        inputs alone.
     initial_name : str, default="initial"
         Name of ``initial`` in the error messages.
     min_init : int, default=1
@@ -99,8 +100,9 @@ n_states) or list of (n_init_i, n_states) arrays
     -------
     inputs : list of ndarray
         The inputs as float64 arrays ``(n_times_i, n_inputs)``.
-    initial : list of ndarray
-        The measured states as float64 arrays ``(n_init_i, n_states)``.
+    initial : list of ndarray or None
+        The measured states as float64 arrays ``(n_init_i, n_states)`` (None
+        where ``initial`` is None).
     form : {"2d", "3d", "list"}
         The container form of ``inputs``, for :func:`pack_trajectories`.
 
@@ -119,6 +121,10 @@ n_states) or list of (n_init_i, n_states) arrays
     (1, (3, 2), '2d')
     """
     U_list, form = _as_list(inputs, "inputs")
+    if initial is None:
+        _check_widths(U_list, "inputs")
+        _check_finite(U_list, "inputs")
+        return U_list, None, form
     Y0_list, init_form = _as_list(initial, initial_name)
     if init_form != form or len(Y0_list) != len(U_list):
         raise ValueError(

@@ -866,9 +866,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_simulation(self, inputs, outputs):
         structure = self._structure()
-        U_list, Y_list, _ = check_trajectories(
-            inputs, outputs, initial_name="outputs"
-        )
+        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
         for attr in ("n_inputs_", "n_outputs_", "feature_names_in_"):
             self.__dict__.pop(attr, None)
         n_inputs, n_outputs = self._check_records(U_list, Y_list, "outputs")

@@ -77,9 +77,7 @@ def _fit(est):
         est.fit_simulation(U_seq, X_seq)
         return est, est.n_init, N_STATES, N_INPUTS
     n_steps = est.get_params(deep=False).get("n_steps", 1)
-    X, y = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(
-        list(X_seq), list(U_seq)
-    )
+    X, y = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(list(X_seq), list(U_seq))
     return est.fit(X, y), n_steps, N_STATES, N_INPUTS
 
 

@@ -359,3 +359,35 @@ def test_state_space_hybrid_least_squares_init_batch_equals_separate(fitted):
     measured = est.simulate(U_seq, X_seq[:, :k])
     ls = est.simulate(U_seq, init, init="least_squares")
     assert ls.shape == measured.shape
+
+
+def _square(X, *, a, xp=np):
+    return a * X[:, :1] ** 2
+
+
+def test_least_squares_init_batch_with_a_diverging_trajectory_equals_separate():
+    """One trajectory's free run overflows from its measured start.
+
+    It keeps its measured record (as a separate call does); before, the whole
+    batch fell back to the measured starts and differed from separate calls.
+    """
+    x = np.linspace(-0.9, 0.9, 50)[:, None]
+    model = ParametricModel(_square, {"a": 1.0}, fixed=("a",)).fit(x, x[:, 0] ** 2)
+    rng = np.random.default_rng(0)
+    Y0 = np.empty((3, 12, 1))
+    for i, start in enumerate([0.9, -0.8]):
+        run = [start]
+        for _ in range(11):
+            run.append(run[-1] ** 2)
+        Y0[i, :, 0] = np.asarray(run) + 0.01 * rng.normal(size=12)
+    Y0[2, :, 0] = [10.0] + [0.1] * 11  # from 10, x**2 overflows within 12 steps
+    U = np.zeros((3, 30, 0))
+    batch = model.simulate(U, Y0, init="least_squares")
+    separate = np.stack(
+        [model.simulate(U[i], Y0[i], init="least_squares") for i in range(3)]
+    )
+    np.testing.assert_allclose(batch, separate, rtol=1e-12, atol=1e-14)
+    # The good trajectories were fitted: not their measured start.
+    measured = model.simulate(U, Y0)
+    assert np.abs(batch[:2, 12:] - measured[:2, 12:]).max() > 1e-6
+    np.testing.assert_array_equal(batch[2], measured[2])

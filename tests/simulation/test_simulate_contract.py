@@ -391,3 +391,26 @@ def test_least_squares_init_batch_with_a_diverging_trajectory_equals_separate():
     measured = model.simulate(U, Y0)
     assert np.abs(batch[:2, 12:] - measured[:2, 12:]).max() > 1e-6
     np.testing.assert_array_equal(batch[2], measured[2])
+
+
+def test_display_draws_a_state_space_model_band():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from skhybrid.simulation import SimulationDisplay
+
+    U, Y, _ = _latent_records(noise=0.05)
+    model = _latent_model(noise_model=GaussianNoise(), n_init=20).fit_simulation(U, Y)
+    disp = SimulationDisplay.from_estimator(
+        model,
+        U[0],
+        Y[0],
+        n_init=20,
+        init="least_squares",
+        return_std=True,
+        random_state=0,
+    )
+    assert len(disp.axes_[0, 0].collections) == 1  # the band
+    plt.close(disp.figure_)

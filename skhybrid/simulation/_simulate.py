@@ -254,14 +254,18 @@ def _noise_draws(noise, n_paths, n_traj, n_times, n_states, random_state):
     return out
 
 
-def _rollout(predict, layout, U, Y, n_init, lengths, noise=None, check=True):
+def _rollout(
+    predict, layout, U, Y, n_init, lengths, noise=None, check=True, n_traj=None
+):
     """Fill ``Y[:, t]``, ``n_init <= t < lengths``, by one batched prediction per step.
 
     ``U`` is ``(n, N, m)``, ``Y`` is ``(n, N, s)`` holding the measured initial
     windows; ``noise`` (the same shape as ``Y`` or None) is added to each
     simulated state before it is fed back. With ``check=False`` non-finite states
-    are left in place instead of raising.
+    are left in place instead of raising. ``n_traj``: rows are sample paths of
+    that many trajectories, one path after the other (for the error message).
     """
+    n_traj = len(Y) if n_traj is None else n_traj
     k = layout.n_steps
     start = int(n_init.min())
     for t in range(start, Y.shape[1]):
@@ -271,11 +275,11 @@ def _rollout(predict, layout, U, Y, n_init, lengths, noise=None, check=True):
         states = Y[active, t - k : t]
         inputs = U[active, t - k : t]
         X = layout.join(states, inputs)
-        pred = _predict_rows(predict, X, check, t, active)
+        pred = _predict_rows(predict, X, check, t, active % n_traj)
         if noise is not None:
             pred = pred + noise[active, t]
         if check and not np.all(np.isfinite(pred)):
-            bad = active[~np.all(np.isfinite(pred), axis=1)][0]
+            bad = active[~np.all(np.isfinite(pred), axis=1)][0] % n_traj
             raise SimulationDivergedError(
                 f"the simulation diverged at time step {t}: trajectory {bad} reached "
                 "a non-finite state. The model is unstable in free run from this "
@@ -458,6 +462,7 @@ n_states) or list of (n_init_i, n_states) arrays
         np.tile(n_init, n_paths),
         np.tile(lengths, n_paths),
         noise=noise.reshape(n_paths * n_traj, n_max, n_states),
+        n_traj=n_traj,
     ).reshape(n_paths, n_traj, n_max, n_states)
     Yp = _measured_window(Yp, Y0_list)
     if return_std:

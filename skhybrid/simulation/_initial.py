@@ -38,6 +38,26 @@ def _costs(residuals, Z, index):
     return r, np.where(finite, squares, np.inf)
 
 
+def _solve(A, b):
+    """``A[i] x[i] = -b[i]`` for every row; a singular row gives NaN, not an error.
+
+    LAPACK solves each matrix of a batch on its own, so the rows are solved one
+    by one only when one of them is singular, and the others get the same
+    solution either way.
+    """
+    with np.errstate(all="ignore"):
+        try:
+            return -np.linalg.solve(A, b[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            out = np.full(b.shape, np.nan)
+            for i in range(len(b)):
+                try:
+                    out[i] = -np.linalg.solve(A[i], b[i])
+                except np.linalg.LinAlgError:
+                    pass
+            return out
+
+
 def fit_initial_states(residuals, x0, *, rel_step=None, max_iter=MAX_ITER):
     """Least-squares estimates of many independent small problems, one per trajectory.
 
@@ -152,8 +172,7 @@ def fit_initial_states(residuals, x0, *, rel_step=None, max_iter=MAX_ITER):
                 break
             rows = idx[t]
             damped = A[t] + (lam[rows, None] * D[t])[:, :, None] * eye
-            with np.errstate(all="ignore"):
-                delta = -np.linalg.solve(damped, g[t][:, :, None])[:, :, 0]
+            delta = _solve(damped, g[t])
             ok = np.all(np.isfinite(delta), axis=1)
             trial = z[t] + np.where(ok[:, None], delta, 0.0)
             r_new, cost_new = _costs(residuals, trial, rows)

@@ -62,6 +62,11 @@ def test_every_simulate_has_the_same_signature():
         if inspect.signature(cls.simulate) != expected
     }
     assert not differ, f"simulate differs from {expected}: {differ}"
+    # The function takes the estimator first and a noise model last.
+    from skhybrid.simulation import simulate
+
+    function = list(inspect.signature(simulate).parameters)
+    assert function == ["estimator", *list(expected.parameters)[1:], "noise_model"]
 
 
 # -- every simulating estimator, fitted once -----------------------------------------

@@ -101,7 +101,8 @@ def _build_parser():
         "system",
         choices=[*SYSTEMS, "all", *MEASURED_SYSTEMS],
         metavar="SYSTEM",
-        help="one of: " + ", ".join([*SYSTEMS, "all", *MEASURED_SYSTEMS])
+        help="one of: "
+        + ", ".join([*SYSTEMS, "all", *MEASURED_SYSTEMS])
         + " (the last three are measured benchmarks and need --data)",
     )
     run.add_argument(

@@ -8,20 +8,27 @@ history (one-step-ahead error, :meth:`StateSpaceModel.fit`) or on whole records 
 the free-run simulation error (:meth:`StateSpaceModel.fit_simulation`).
 """
 
+import copy
 import inspect
 from numbers import Integral, Real
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
-from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
+from skhybrid.simulation import (
+    check_trajectories,
+    fit_initial_states,
+    pack_trajectories,
+)
 from skhybrid.utils._array_api import get_namespace, is_torch
 from skhybrid.utils._sklearn_compat import (
+    HasMethods,
     Interval,
     StrOptions,
     _fit_context,
@@ -50,8 +57,9 @@ class StateSpaceModel(DomainModel):
     record (a window of history, or the initialisation window of a simulation)
     starts, the observed states start at their measured values and the latent ones
     are estimated by least squares: the initial latent state whose simulated
-    outputs over the window match the measured ones best (a batched
-    Levenberg-Marquardt iteration, one per record).
+    outputs over the window match the measured ones best (one least-squares
+    problem per record, solved by :func:`~skhybrid.simulation.fit_initial_states`,
+    the package's one initial-state solver).
 
     Two ways to fit the parameters:
 
@@ -155,6 +163,15 @@ default=None
         (``jac="2-point"``, ``objective="mse"``): one pass over the records per
         Jacobian instead of one per parameter, which matters where a record is
         long and the model cheap. Needs scalar parameters.
+    noise_model : object or None, default=None
+        An unfitted noise model, :class:`~skhybrid.hybrid.GaussianNoise` or
+        :class:`~skhybrid.hybrid.AutoRegressiveNoise` (or anything with
+        ``fit(residuals)`` and ``sample(n_samples, random_state)``), copied and
+        fitted by ``fit_simulation`` to the simulation residuals of every
+        record after its ``n_init`` initialisation samples (the records one
+        after the other, in time order). Then ``simulate`` gives sample paths
+        (``n_samples``) and bands (``return_std=True``). ``fit(X, y)`` fits no
+        noise model: its one-step residuals are not those of a free run.
 
     Attributes
     ----------
@@ -176,6 +193,12 @@ default=None
         Estimated initial state of each record (``fit_simulation`` only).
     rmse_ : float
         Free-run RMSE over the records (``fit_simulation`` only).
+    noise_model_ : object or None
+        The noise model fitted to the simulation residuals (``fit_simulation``
+        with ``noise_model``), else None.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of the columns of ``X`` when ``fit`` got a DataFrame with string
+        column names.
 
     See Also
     --------
@@ -220,6 +243,7 @@ default=None
         "estimate_observed": ["boolean"],
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
         "vectorized": ["boolean"],
+        "noise_model": [HasMethods(["fit", "sample"]), None],
     }
 
     def __init__(
@@ -250,6 +274,7 @@ default=None
         max_nfev=None,
         n_steps=1,
         vectorized=False,
+        noise_model=None,
     ):
         super().__init__(
             fixed=fixed,
@@ -278,6 +303,7 @@ default=None
         self.estimate_observed = estimate_observed
         self.identifiability_tol = identifiability_tol
         self.vectorized = vectorized
+        self.noise_model = noise_model
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -678,90 +704,69 @@ default=None
                 columns.append(column)
         return xp.stack(columns, axis=1)
 
-    def _estimate_x0(self, Y, U, params, structure, max_iter=50):
+    def _estimate_x0(self, Y, U, params, structure, estimate_observed=None):
         """Least-squares initial states ``(n, n_states)`` of windows ``Y``, ``U``.
 
         ``Y`` is ``(n, k, n_outputs)`` measured outputs and ``U`` ``(n, k,
-        n_inputs)`` inputs over each window; NumPy only. A batched
-        Levenberg-Marquardt iteration with forward-difference Jacobians (the
-        perturbed trajectories simulated in one batch) on the free initial
-        states: the latent ones, or all of them with an ``output`` function.
+        n_inputs)`` inputs over each window; NumPy only. The free initial states
+        (the latent ones, all of them with an ``output`` function or where the
+        observed ones are estimated too) are fitted by
+        :func:`~skhybrid.simulation.fit_initial_states`, the package's one
+        initial-state solver, separately for every window; the perturbed
+        windows are simulated in one batch. ``estimate_observed`` overrides the
+        parameter of that name.
         """
         n_states, observed, guess = structure
         if callable(guess):
             guess = self._call_guess(guess, Y, U, n_states)
-        x0 = self._start(Y[:, 0], guess, observed)
+        x0 = np.array(self._start(Y[:, 0], guess, observed), dtype=float)
+        if estimate_observed is None:
+            estimate_observed = self.estimate_observed
         free = (
             list(range(n_states))
-            if observed is None or self.estimate_observed
+            if observed is None or estimate_observed
             else [j for j in range(n_states) if j not in observed]
         )
         k = Y.shape[1]
         if not free or (k < 2 and observed is not None):
             return x0
-        n, m = Y.shape[0], len(free)
+        n = Y.shape[0]
         target = Y.reshape(n, -1)
+        # Parameters given one value per window (vectorized=True) follow their
+        # window into every batch of candidates.
+        per_row = {
+            name
+            for name, v in params.items()
+            if self.vectorized and np.ndim(v) == 1 and np.shape(v)[0] == n
+        }
 
-        def residuals(X0, reps):
-            rows = _repeat_rows(params, n, reps) if self.vectorized else params
-            out, _ = self._run(X0, np.repeat(U, reps, axis=0), rows, observed, np, k)
-            with np.errstate(all="ignore"):
-                r = out.reshape(X0.shape[0], -1) - np.repeat(target, reps, axis=0)
-            bad = ~np.isfinite(r)
-            r[bad] = _DIVERGED_RESIDUAL
-            return r
+        def residuals(Z, index):
+            X0 = x0[index]
+            X0[:, free] = Z
+            rows = {
+                name: v[index] if name in per_row else v for name, v in params.items()
+            }
+            out, _ = self._run(X0, U[index], rows, observed, np, k)
+            return np.reshape(out, (len(index), -1)) - target[index]
 
-        cost = np.sum(residuals(x0, 1) ** 2, axis=1)
-        lam = np.full(n, 1e-3)
-        done = np.zeros(n, dtype=bool)
-        eye = np.eye(m)[None]
-        for _ in range(max_iter):
-            z = x0[:, free]
-            eps = np.maximum(1e-7 * np.abs(z), 1e-8)
-            batch = np.repeat(x0[:, None, :], m + 1, axis=1)
-            for i, j in enumerate(free):
-                batch[:, i + 1, j] += eps[:, i]
-            R = residuals(batch.reshape(-1, n_states), m + 1).reshape(n, m + 1, -1)
-            J = (R[:, 1:] - R[:, :1]) / eps[:, :, None]  # (n, m, n_res)
-            JtJ = J @ np.swapaxes(J, 1, 2)
-            g = J @ R[:, 0, :, None]
-            diag = np.diagonal(JtJ, axis1=1, axis2=2)
-            ridge = 1e-12 * (np.max(diag, axis=1) + 1e-300)
-            start_cost = cost.copy()
-            small = np.zeros(n, dtype=bool)
-            # One accepted step per row and iteration: each row's path is the
-            # one it would take alone, whatever the other rows of the batch do.
-            accepted = np.zeros(n, dtype=bool)
-            for _ in range(10):
-                damping = lam[:, None] * diag + ridge[:, None]
-                delta = -np.linalg.solve(JtJ + damping[:, :, None] * eye, g)[..., 0]
-                trial = x0.copy()
-                trial[:, free] = z + delta
-                cost_trial = np.sum(residuals(trial, 1) ** 2, axis=1)
-                better = (cost_trial < cost) & ~done & ~accepted
-                x0 = np.where(better[:, None], trial, x0)
-                cost = np.where(better, cost_trial, cost)
-                lam = np.where(better, lam / 10, np.where(accepted, lam, lam * 10))
-                accepted |= better
-                small |= np.all(np.abs(delta) <= 1e-12 * (np.abs(z) + 1e-9), axis=1)
-                if np.all(accepted | done | small):
-                    break
-            gain = (start_cost - cost) / (start_cost + 1e-300)
-            done |= small | (gain < 1e-6)
-            if np.all(done):
-                break
+        z, _ = fit_initial_states(residuals, x0[:, free])
+        x0[:, free] = z
         return x0
 
     def _check_fitted_structure(self):
         check_is_fitted(self)
         return self._structure()
 
-    def estimate_initial_state(self, inputs, outputs):
+    def estimate_initial_state(self, inputs, outputs, *, params=None):
         """Estimate the initial state of records from their first samples.
 
-        The observed states start at their measured values; the latent ones are
-        fitted by least squares so that the simulated outputs over the given
-        samples match the measured ones.
+        The observed states start at their measured values (and are fitted too
+        where ``estimate_observed=True``); the latent ones are fitted by least
+        squares so that the simulated outputs over the given samples match the
+        measured ones. One least-squares problem per record, solved by
+        :func:`~skhybrid.simulation.fit_initial_states` with every record's
+        simulations in one batch; a record's estimate never depends on the
+        other records given with it.
 
         Parameters
         ----------
@@ -770,22 +775,38 @@ n_inputs) or list of 2-D arrays
             Inputs over (at least) the initialisation window of each record.
         outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
 n_outputs) or list of 2-D arrays
-            Measured outputs of the initialisation window; ``n_init`` samples.
+            Measured outputs of the initialisation window; ``n_init >= 1``
+            samples, all finite.
+        params : dict or None, default=None
+            Parameter values by name to simulate with; ``None`` uses the fitted
+            ``params_``. A state-space hybrid estimates its physics' states at
+            the physics' current parameters this way.
 
         Returns
         -------
         states : ndarray of shape (n_records, n_states)
             The estimated state at the first sample of each record.
+
+        Raises
+        ------
+        ValueError
+            Where a record has no measured sample, or a non-finite input or
+            output (naming the record and the time step).
         """
         structure = self._check_fitted_structure()
-        U_list, _ = _as_list(inputs, "inputs")
-        Y_list, _ = _as_list(outputs, "outputs")
+        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
         self._check_records(U_list, Y_list, "outputs")
+        return self._estimate_records(
+            U_list, Y_list, self.params_ if params is None else params, structure
+        )
+
+    def _estimate_records(self, U_list, Y_list, params, structure, **kwargs):
+        """Initial states of records of any lengths, each length one batch."""
         out = np.empty((len(U_list), structure[0]))
         for n_init, idx in _groups([len(y) for y in Y_list]):
             U = np.stack([U_list[i][:n_init] for i in idx])
             Y = np.stack([Y_list[i] for i in idx])
-            out[idx] = self._estimate_x0(Y, U, self.params_, structure)
+            out[idx] = self._estimate_x0(Y, U, params, structure, **kwargs)
         return out
 
     def _check_records(self, U_list, Y_list, y_name):
@@ -794,8 +815,8 @@ n_outputs) or list of 2-D arrays
                 f"inputs holds {len(U_list)} record(s) but {y_name} holds "
                 f"{len(Y_list)}; give one {y_name} array per inputs array."
             )
-        n_inputs = _check_widths(U_list, "inputs")
-        n_outputs = _check_widths(Y_list, y_name)
+        # check_trajectories has checked that every record has these widths.
+        n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
         for name, expected, got in (
             ("input", getattr(self, "n_inputs_", None), n_inputs),
             ("output", getattr(self, "n_outputs_", None), n_outputs),
@@ -855,8 +876,14 @@ n_outputs) or list of 2-D arrays
         X, y = validate_data(
             self, X, y, multi_output=multi, y_numeric=True, dtype=np.float64
         )
+        # DomainModel.fit validates again, on the array, which would drop the
+        # names validate_data just read from a DataFrame.
+        names = getattr(self, "feature_names_in_", None)
         super().fit(X, y)
+        if names is not None:
+            self.feature_names_in_ = names
         self.n_inputs_ = self._layout(X.shape[1]).n_inputs
+        self.noise_model_ = None
         return self
 
     def predict(self, X):
@@ -910,16 +937,8 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_simulation(self, inputs, outputs):
         structure = self._structure()
-        U_list, _ = _as_list(inputs, "inputs")
-        Y_list, _ = _as_list(outputs, "outputs")
-        for name, arrays in (("inputs", U_list), ("outputs", Y_list)):
-            for i, a in enumerate(arrays):
-                if not np.all(np.isfinite(a)):
-                    raise ValueError(
-                        f"{name}[{i}] holds NaN or infinite values; records must be "
-                        "finite."
-                    )
-        for attr in ("n_inputs_", "n_outputs_"):
+        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
+        for attr in ("n_inputs_", "n_outputs_", "feature_names_in_"):
             self.__dict__.pop(attr, None)
         n_inputs, n_outputs = self._check_records(U_list, Y_list, "outputs")
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
@@ -979,6 +998,13 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self.initial_states_ = x0
         err = (Y_sim - Y)[mask]
         self.rmse_ = float(np.sqrt(np.mean(err**2)))
+        self.noise_model_ = None
+        if self.noise_model is not None:
+            n_init = min(self.n_init, T)
+            residuals = np.concatenate(
+                [(Y[i] - Y_sim[i])[n_init : lengths[i]] for i in range(len(lengths))]
+            )
+            self.noise_model_ = copy.deepcopy(self.noise_model).fit(residuals)
         return self
 
     def _simulate_records(self, U, Y, params, structure):
@@ -1094,7 +1120,7 @@ n_inputs) or list of 2-D arrays
             container form of ``inputs``; row 0 is the output of ``states``.
         """
         n_states, _, _ = self._check_fitted_structure()
-        U_list, form = _as_list(inputs, "inputs")
+        U_list, _, form = check_trajectories(inputs, None)
         x0 = np.atleast_2d(np.asarray(states, dtype=float))
         if x0.shape != (len(U_list), n_states):
             raise ValueError(
@@ -1104,7 +1130,7 @@ n_inputs) or list of 2-D arrays
             )
         return self._free_run_records(U_list, x0, form)
 
-    def _free_run_records(self, U_list, x0, form, initial=None):
+    def _free_run_records(self, U_list, x0, form, initial=None, pack=True):
         _, observed, _ = self._structure()
         lengths = np.array([len(u) for u in U_list])
         n_in = U_list[0].shape[1]
@@ -1125,18 +1151,25 @@ n_inputs) or list of 2-D arrays
         if initial is not None:
             for i, y in enumerate(initial):
                 out[i, : len(y)] = y
-        return _pack(out, lengths, form)
+        return pack_trajectories(out, lengths, form) if pack else out
 
     def simulate(
-        self, inputs, initial, *, n_samples=None, random_state=None, return_std=False
+        self,
+        inputs,
+        initial,
+        *,
+        init="measured",
+        n_samples=None,
+        random_state=None,
+        return_std=False,
     ):
         """Simulate the fitted model in free run from measured initial windows.
 
-        The initial state of each record is estimated from its measured initial
-        window (see :meth:`estimate_initial_state`), then the physics runs free to
-        the end of the inputs. Follows the contract of
-        :func:`skhybrid.simulation.simulate`: the first ``n_init`` samples returned
-        are the measured ones.
+        The state at the first sample of each record is estimated from its
+        measured initial window (see :meth:`estimate_initial_state`), then the
+        physics runs free to the end of the inputs. Follows the contract of
+        :func:`skhybrid.simulation.simulate`: the first ``len(initial)`` samples
+        returned are the measured ones.
 
         Parameters
         ----------
@@ -1145,50 +1178,94 @@ n_times, n_inputs) or list of 2-D arrays
             Inputs over the whole experiment, initial window included.
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
-            Measured outputs of the first ``n_init`` time steps.
+            Measured outputs of the first ``n_init >= n_steps`` time steps, all
+            finite.
+        init : {"measured", "least_squares"}, default="measured"
+            How the initial state is found; latent states are always fitted by
+            least squares over the whole of ``initial``. ``"measured"``: the
+            observed states start as the model was fitted to start them (at
+            their measured values, fitted too where ``estimate_observed=True``).
+            ``"least_squares"``: the observed states are fitted as well,
+            whatever ``estimate_observed`` says, which averages their
+            measurement noise out of the start.
         n_samples : int or None, default=None
-            Sample paths need a noise model, which this model has not: must be
-            None.
+            Number of sample paths: the deterministic simulation plus draws of
+            the noise model fitted to the simulation residuals
+            (``noise_model_``, see ``noise_model``), an output error that is not
+            fed back into the states. Needs a noise model.
         random_state : int, RandomState instance or None, default=None
-            Unused (no noise model).
+            Seed of the noise draws.
         return_std : bool, default=False
-            Must be False (no noise model).
+            Return the mean and the standard deviation over sample paths
+            (``n_samples`` defaults to 100 then). Needs a noise model.
 
         Returns
         -------
         outputs : ndarray or list of ndarray
-            Simulated outputs in the container form of ``inputs``.
+            Simulated outputs in the container form of ``inputs``; with
+            ``n_samples`` a leading axis of sample paths, with
+            ``return_std=True`` the tuple ``(mean, std)``.
         """
         structure = self._check_fitted_structure()
-        if n_samples is not None or return_std:
+        if not isinstance(init, str) or init not in ("measured", "least_squares"):
+            raise ValueError(
+                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
+            )
+        stochastic = n_samples is not None or return_std
+        if n_samples is not None:
+            if isinstance(n_samples, bool) or not isinstance(
+                n_samples, (int, np.integer)
+            ):
+                raise TypeError(f"n_samples must be an int or None; got {n_samples!r}.")
+            if n_samples < 1:
+                raise ValueError(f"n_samples must be >= 1; got n_samples={n_samples}.")
+        noise = getattr(self, "noise_model_", None)
+        if stochastic and noise is None:
             raise ValueError(
                 f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
-                f"model; {type(self).__name__} has none."
+                f"model; this {type(self).__name__} has none. Pass noise_model (for "
+                "example skhybrid.hybrid.GaussianNoise()) and fit with "
+                "fit_simulation, which fits it to the simulation residuals."
             )
-        U_list, form = _as_list(inputs, "inputs")
-        Y_list, init_form = _as_list(initial, "initial")
-        if init_form != form:
-            raise ValueError(
-                f"initial must match inputs: inputs is a {form} container but "
-                f"initial a {init_form} one."
-            )
+        U_list, Y_list, form = check_trajectories(
+            inputs,
+            initial,
+            min_init=self.n_steps,
+            window_name=f"the model's window (n_steps={self.n_steps})",
+        )
         self._check_records(U_list, Y_list, "initial")
-        x0 = np.empty((len(U_list), structure[0]))
-        for n_init, idx in _groups([len(y) for y in Y_list]):
-            U = np.stack([U_list[i][:n_init] for i in idx])
-            Y = np.stack([Y_list[i] for i in idx])
-            x0[idx] = self._estimate_x0(Y, U, self.params_, structure)
-        return self._free_run_records(U_list, x0, form, initial=Y_list)
-
-
-def _repeat_rows(params, n, reps):
-    """``params`` with each per-row array (shape ``(n,)``) repeated ``reps`` times."""
-    if reps == 1:
-        return params
-    return {
-        k: np.repeat(v, reps) if np.ndim(v) == 1 and np.shape(v)[0] == n else v
-        for k, v in params.items()
-    }
+        x0 = self._estimate_records(
+            U_list,
+            Y_list,
+            self.params_,
+            structure,
+            estimate_observed=True if init == "least_squares" else None,
+        )
+        out = self._free_run_records(U_list, x0, form, initial=Y_list, pack=False)
+        lengths = np.array([len(u) for u in U_list])
+        if not stochastic:
+            return pack_trajectories(out, lengths, form)
+        rng = check_random_state(random_state)
+        n_paths = 100 if n_samples is None else int(n_samples)
+        n_traj, n_max, n_out = out.shape
+        draws = np.empty((n_paths, n_traj, n_max, n_out))
+        for p in range(n_paths):
+            for i in range(n_traj):
+                draw = noise.sample(n_max, random_state=rng)
+                draws[p, i] = np.reshape(draw, (n_max, n_out))
+        paths = out[None] + draws
+        for i, y in enumerate(Y_list):
+            paths[:, i, : len(y)] = y
+        if return_std:
+            mean, std = paths.mean(axis=0), paths.std(axis=0)
+            for i, y in enumerate(Y_list):
+                # Exactly the measurements, not their mean's rounding.
+                mean[i, : len(y)], std[i, : len(y)] = y, 0.0
+            return (
+                pack_trajectories(mean, lengths, form),
+                pack_trajectories(std, lengths, form),
+            )
+        return pack_trajectories(paths, lengths, form)
 
 
 def _central_differences_batch(raw_batch, theta, spec):

@@ -33,7 +33,11 @@ from skhybrid.neural.engine import (
     training_parameters_doc,
 )
 from skhybrid.preprocessing import split_steps
-from skhybrid.simulation._simulate import _as_list, _check_widths, _pack
+from skhybrid.simulation import (
+    check_trajectories,
+    fit_initial_states,
+    pack_trajectories,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -588,8 +592,7 @@ class StateSpaceHybridRegressor(
 
     def _window_targets(self, physics, Y, U, k):
         """Physics' state estimates at the last sample of each window."""
-        structure = physics._structure()
-        x0 = physics._estimate_x0(Y[:, :k], U[:, :k], physics.params_, structure)
+        x0 = physics.estimate_initial_state(U[:, :k], Y[:, :k])
         states = self._states_along(physics, x0, U, k)
         good = np.all(np.isfinite(states), axis=(1, 2))
         return states, good
@@ -619,15 +622,8 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_simulation(self, inputs, outputs):
         self._check_settings()
-        U_list, _ = _as_list(inputs, "inputs")
-        Y_list, _ = _as_list(outputs, "outputs")
-        if len(U_list) != len(Y_list):
-            raise ValueError(
-                f"inputs holds {len(U_list)} record(s) but outputs {len(Y_list)}; "
-                "give one outputs array per inputs array."
-            )
-        n_inputs = _check_widths(U_list, "inputs")
-        n_outputs = _check_widths(Y_list, "outputs")
+        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
+        n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
         k, T = self.n_init, self.horizon
         check_sequence_objective(self, T)
         stride = self.stride
@@ -636,11 +632,6 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 raise ValueError(
                     f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
                     f"{len(y)}; each record's inputs and outputs must be aligned."
-                )
-            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
-                raise ValueError(
-                    f"inputs[{i}] or outputs[{i}] holds NaN or infinite values; "
-                    "records must be finite."
                 )
         physics = clone(self.physics).set_params(n_init=k)
         self._start_physics(physics, "fit_simulation", U_list, Y_list)
@@ -831,7 +822,16 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         return out[:, 0] if getattr(self, "_y_1d", False) else out
 
     # -- simulation ----------------------------------------------------------------
-    def simulate(self, inputs, initial):
+    def simulate(
+        self,
+        inputs,
+        initial,
+        *,
+        init="measured",
+        n_samples=None,
+        random_state=None,
+        return_std=False,
+    ):
         """Simulate the fitted model in free run from measured initial windows.
 
         The encoder reads the last ``n_init`` samples of each initial window
@@ -846,7 +846,24 @@ n_times, n_inputs) or list of 2-D arrays
             Inputs over the whole experiment, initial window included.
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
-            Measured outputs of the first time steps (at least ``n_init``).
+            Measured outputs of the first time steps (at least ``n_init``), all
+            finite.
+        init : {"measured", "least_squares"}, default="measured"
+            ``"measured"``: the encoder reads the newest ``n_init`` measured
+            samples and the simulation starts there. ``"least_squares"``: the
+            state the encoder gives at the end of the *first* ``n_init``
+            samples is refined so that the model's own free run through all of
+            ``initial`` matches it in least squares
+            (:func:`~skhybrid.simulation.fit_initial_states`, one problem per
+            trajectory), and the simulation continues from that run; with
+            ``initial`` well longer than ``n_init`` this averages the
+            measurement noise out of the start.
+        n_samples : int or None, default=None
+            Must be None: this model has no noise model.
+        random_state : int, RandomState instance or None, default=None
+            Unused (no noise model).
+        return_std : bool, default=False
+            Must be False: this model has no noise model.
 
         Returns
         -------
@@ -856,38 +873,32 @@ n_init, n_outputs) or list of 2-D arrays
         import torch
 
         check_is_fitted(self)
-        U_list, form = _as_list(inputs, "inputs")
-        Y_list, init_form = _as_list(initial, "initial")
-        if init_form != form or len(U_list) != len(Y_list):
+        if not isinstance(init, str) or init not in ("measured", "least_squares"):
             raise ValueError(
-                f"initial must match inputs: {len(U_list)} experiment(s) given as a "
-                f"{form} container, but initial holds {len(Y_list)} as a "
-                f"{init_form} container."
+                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
             )
-        if _check_widths(U_list, "inputs") != self.n_inputs_:
+        if n_samples is not None or return_std:
+            raise ValueError(
+                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
+                f"model; {type(self).__name__} has none: it simulates the "
+                "deterministic path only."
+            )
+        k = self._k
+        U_list, Y_list, form = check_trajectories(
+            inputs, initial, min_init=k, window_name=f"the encoder (n_init={k})"
+        )
+        if U_list[0].shape[1] != self.n_inputs_:
             raise ValueError(
                 f"the model was fitted with {self.n_inputs_} input column(s); got "
                 f"{U_list[0].shape[1]}."
             )
-        if _check_widths(Y_list, "initial") != self.n_outputs_:
+        if Y_list[0].shape[1] != self.n_outputs_:
             raise ValueError(
                 f"the model was fitted with {self.n_outputs_} output column(s); got "
                 f"{Y_list[0].shape[1]} in initial."
             )
-        k = self._k
         lengths = np.array([len(u) for u in U_list])
         starts = np.array([len(y) for y in Y_list])
-        for i, (s, n) in enumerate(zip(starts, lengths, strict=True)):
-            if s < k:
-                raise ValueError(
-                    f"initial[{i}] holds {s} time steps; the encoder reads n_init="
-                    f"{k}, so at least {k} measured steps must start the simulation."
-                )
-            if s > n:
-                raise ValueError(
-                    f"initial[{i}] holds {s} time steps but inputs[{i}] only {n}; "
-                    "inputs cover the whole experiment, initial window included."
-                )
         n_max = int(lengths.max())
         out = np.zeros((len(U_list), n_max, self.n_outputs_))
         pairs = sorted({(int(a), int(b)) for a, b in zip(starts, lengths, strict=True)})
@@ -898,17 +909,21 @@ n_init, n_outputs) or list of 2-D arrays
             if n == s:
                 continue
             U = np.stack([U_list[i][:n] for i in idx])
-            Yw = np.stack([Y_list[i][s - k : s] for i in idx])
-            prior = self._prior(Yw, U[:, s - k : s])
-            u = torch.as_tensor(U)
-            with torch.no_grad():
-                sim = self._rollout(
-                    torch.as_tensor(Yw),
-                    u[:, s - k : s - 1],
-                    u[:, s - 1 : n - 1],
-                    self._params_t,
-                    None if prior is None else torch.as_tensor(prior),
-                ).numpy()
+            Y = np.stack([Y_list[i] for i in idx])
+            if init == "least_squares" and s > k:
+                sim = self._least_squares_run(Y, U)[:, s - k :]
+            else:
+                Yw = Y[:, s - k : s]
+                prior = self._prior(Yw, U[:, s - k : s])
+                u = torch.as_tensor(U)
+                with torch.no_grad():
+                    sim = self._rollout(
+                        torch.as_tensor(Yw),
+                        u[:, s - k : s - 1],
+                        u[:, s - 1 : n - 1],
+                        self._params_t,
+                        None if prior is None else torch.as_tensor(prior),
+                    ).numpy()
             finite = np.all(np.isfinite(sim), axis=2)
             if not np.all(finite):
                 j, t = np.argwhere(~finite)[0]
@@ -917,7 +932,48 @@ n_init, n_outputs) or list of 2-D arrays
                     f"{idx[j]} reached a non-finite output."
                 )
             out[idx, s:n] = sim
-        return _pack(out, lengths, form)
+        return pack_trajectories(out, lengths, form)
+
+    def _least_squares_run(self, Y, U):
+        """Outputs ``(n, T - k, p)`` after the first window, its end state fitted.
+
+        The encoder's state at sample ``k - 1`` of each record starts a least
+        squares fit of the free run through the measured ``Y (n, s, p)``; the
+        run from the fitted state then goes on under ``U (n, T, m)``.
+        """
+        import torch
+
+        k, s = self._k, Y.shape[1]
+        Yw = Y[:, :k]
+        prior = self._prior(Yw, U[:, :k])
+        u = torch.as_tensor(U)
+        with torch.no_grad():
+            x0 = self.module_.encode(
+                torch.as_tensor(Yw),
+                u[:, : k - 1],
+                None if prior is None else torch.as_tensor(prior),
+            ).numpy()
+
+        def run(x, U_run):
+            outs = []
+            with torch.no_grad():
+                x = torch.as_tensor(x)
+                for t in range(U_run.shape[1]):
+                    x = self.module_.advance(x, U_run[:, t], self._params_t)
+                    outs.append(self.physics_.observe(x, self._params_t))
+            if not outs:
+                return np.zeros((len(U_run), 0, self.n_outputs_))
+            return torch.stack(outs, dim=1).numpy()
+
+        def residuals(Z, index):
+            with np.errstate(all="ignore"):
+                first = self.physics_.observe(Z, self.params_)
+                rest = run(Z, u[index, k - 1 : s - 1])
+                r = np.concatenate([first[:, None], rest], axis=1) - Y[index, k - 1 :]
+            return r.reshape(len(index), -1)
+
+        z, _ = fit_initial_states(residuals, x0)
+        return run(z, u[:, k - 1 : U.shape[1] - 1])
 
 
 _SEQUENCE_DEFAULTS = {

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from skhybrid.diagnostics._plot import _output_names, _panels
+from skhybrid.utils._plotting import output_names as _output_names
+from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["SimulationDisplay"]
 
@@ -224,6 +225,7 @@ class SimulationDisplay:
         y_true,
         *,
         n_init,
+        init="measured",
         return_std=False,
         random_state=None,
         time=None,
@@ -243,6 +245,8 @@ class SimulationDisplay:
             Measured outputs; the first ``n_init`` start the simulation.
         n_init : int
             Length of the measured initial window.
+        init : {"measured", "least_squares"}, default="measured"
+            How the simulation starts (see :func:`skhybrid.simulation.simulate`).
         return_std : bool, default=False
             Draw the band of sample paths (needs a noise model).
         random_state : int, RandomState instance or None, default=None
@@ -263,7 +267,11 @@ class SimulationDisplay:
         """
         y_true = _as_2d(y_true, "y_true")
         out = estimator.simulate(
-            inputs, y_true[:n_init], return_std=return_std, random_state=random_state
+            inputs,
+            y_true[:n_init],
+            init=init,
+            return_std=return_std,
+            random_state=random_state,
         )
         y_sim, y_std = out if return_std else (out, None)
         return cls.from_predictions(

@@ -6,9 +6,9 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.preprocessing import WindowLayout
-from skhybrid.simulation._initial import fit_initial_windows
+from skhybrid.simulation._initial import fit_initial_states
 
-__all__ = ["SimulatorMixin", "simulate"]
+__all__ = ["SimulatorMixin", "check_trajectories", "pack_trajectories", "simulate"]
 
 INITS = ("measured", "least_squares")
 
@@ -55,6 +55,163 @@ def _check_widths(arrays, name):
     return widths.pop()
 
 
+def _check_finite(arrays, name):
+    """Raise a ValueError naming the first non-finite trajectory and time step."""
+    for i, a in enumerate(arrays):
+        bad = ~np.isfinite(a)
+        if bad.any():
+            t, j = np.argwhere(bad)[0]
+            raise ValueError(
+                f"{name}[{i}] holds a non-finite value ({a[t, j]!r}) at time step "
+                f"{t}, column {j}; trajectory {i} must be finite everywhere (NaN "
+                "or infinity would be returned or spread through the simulation)."
+            )
+
+
+def check_trajectories(
+    inputs, initial, *, initial_name="initial", min_init=1, window_name="the model"
+):
+    """Validate the trajectories given to a ``simulate`` or initial-state estimate.
+
+    The one validation of every estimator's :meth:`simulate` and of
+    :meth:`~skhybrid.domain.StateSpaceModel.estimate_initial_state`: the
+    containers match, every trajectory has the same numbers of columns, holds at
+    least ``min_init`` measured time steps and no more than its inputs, and
+    every value of both is finite.
+
+    Parameters
+    ----------
+    inputs : array-like of shape (n_times, n_inputs), (n_trajectories, n_times, \
+n_inputs) or list of (n_times_i, n_inputs) arrays
+        Inputs over the whole experiment from time 0.
+    initial : array-like of shape (n_init, n_states), (n_trajectories, n_init, \
+n_states) or list of (n_init_i, n_states) arrays, or None
+        Measured states (or outputs) of the first time steps; None checks the
+        inputs alone.
+    initial_name : str, default="initial"
+        Name of ``initial`` in the error messages.
+    min_init : int, default=1
+        Fewest measured time steps a trajectory needs (the model's window).
+    window_name : str, default="the model"
+        What needs ``min_init`` steps, in the error message (for example
+        ``"the model's window (n_steps=5)"``).
+
+    Returns
+    -------
+    inputs : list of ndarray
+        The inputs as float64 arrays ``(n_times_i, n_inputs)``.
+    initial : list of ndarray or None
+        The measured states as float64 arrays ``(n_init_i, n_states)`` (None
+        where ``initial`` is None).
+    form : {"2d", "3d", "list"}
+        The container form of ``inputs``, for :func:`pack_trajectories`.
+
+    Raises
+    ------
+    ValueError
+        Naming the trajectory (and the time step of a non-finite value).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.simulation import check_trajectories
+    >>> u, y0 = np.zeros((10, 1)), np.ones((3, 2))
+    >>> inputs, initial, form = check_trajectories(u, y0)
+    >>> len(inputs), initial[0].shape, form
+    (1, (3, 2), '2d')
+    """
+    U_list, form = _as_list(inputs, "inputs")
+    if initial is None:
+        _check_widths(U_list, "inputs")
+        _check_finite(U_list, "inputs")
+        return U_list, None, form
+    Y0_list, init_form = _as_list(initial, initial_name)
+    if init_form != form or len(Y0_list) != len(U_list):
+        raise ValueError(
+            f"{initial_name} must match inputs: {len(U_list)} experiment(s) given "
+            f"as a {form} container, but {initial_name} holds {len(Y0_list)} as a "
+            f"{init_form} container."
+        )
+    _check_widths(U_list, "inputs")
+    _check_widths(Y0_list, initial_name)
+    for i, (u, y) in enumerate(zip(U_list, Y0_list, strict=True)):
+        if len(y) < min_init:
+            raise ValueError(
+                f"{initial_name}[{i}] holds {len(y)} time steps; {window_name} "
+                f"needs at least {min_init} measured steps to start trajectory {i}."
+            )
+        if len(y) > len(u):
+            raise ValueError(
+                f"{initial_name}[{i}] holds {len(y)} time steps but inputs[{i}] "
+                f"only {len(u)}; inputs cover the whole experiment, initial window "
+                "included."
+            )
+    _check_finite(Y0_list, initial_name)
+    _check_finite(U_list, "inputs")
+    return U_list, Y0_list, form
+
+
+def pack_trajectories(Y, lengths, form):
+    """Return padded trajectories in the container form of the inputs.
+
+    Parameters
+    ----------
+    Y : ndarray of shape (..., n_trajectories, n_times, n_columns)
+        Trajectories padded to the longest; leading axes (sample paths) are kept.
+    lengths : array-like of int of shape (n_trajectories,)
+        Time steps of each trajectory.
+    form : {"2d", "3d", "list"}
+        The form :func:`check_trajectories` returned.
+
+    Returns
+    -------
+    out : ndarray or list of ndarray
+        ``Y`` itself (``"3d"``), its only trajectory (``"2d"``) or a list of the
+        trajectories cut to their lengths (``"list"``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.simulation import pack_trajectories
+    >>> Y = np.zeros((2, 5, 1))
+    >>> [a.shape for a in pack_trajectories(Y, [5, 3], "list")]
+    [(5, 1), (3, 1)]
+    """
+    return _pack(Y, lengths, form)
+
+
+def _predict_rows(predict, X, check, t, active):
+    """``predict(X)``; where the model's own validation rejects a diverged row, NaN.
+
+    A composite (a booster) validates the inputs of its inner stages, so a
+    state that overflowed inside it surfaces as scikit-learn's "Input X contains
+    infinity" rather than as a non-finite prediction. Row by row, the rows that
+    fail are found and reported (``check``) or set to NaN.
+    """
+    try:
+        return np.asarray(predict(X), dtype=np.float64).reshape(len(X), -1)
+    except ValueError as exc:
+        if "infinity" not in str(exc) and "NaN" not in str(exc):
+            raise
+        first = exc
+    rows = []
+    for i in range(len(X)):
+        try:
+            rows.append(np.asarray(predict(X[i : i + 1]), dtype=np.float64).ravel())
+        except ValueError:
+            if check:
+                raise SimulationDivergedError(
+                    f"the simulation diverged at time step {t}: trajectory "
+                    f"{active[i]} reached a state the model cannot evaluate "
+                    f"({str(first).rstrip('.')}). The model is unstable in free "
+                    "run from this initial window (check the inputs' range "
+                    "against the training data)."
+                ) from first
+            rows.append(None)
+    width = next((len(r) for r in rows if r is not None), 1)
+    return np.stack([np.full(width, np.nan) if r is None else r for r in rows])
+
+
 def _layout(estimator, n_states, n_inputs):
     """The window layout the fitted estimator reads, from its shapes."""
     n_features = getattr(estimator, "n_features_in_", None)
@@ -97,14 +254,18 @@ def _noise_draws(noise, n_paths, n_traj, n_times, n_states, random_state):
     return out
 
 
-def _rollout(predict, layout, U, Y, n_init, lengths, noise=None, check=True):
+def _rollout(
+    predict, layout, U, Y, n_init, lengths, noise=None, check=True, n_traj=None
+):
     """Fill ``Y[:, t]``, ``n_init <= t < lengths``, by one batched prediction per step.
 
     ``U`` is ``(n, N, m)``, ``Y`` is ``(n, N, s)`` holding the measured initial
     windows; ``noise`` (the same shape as ``Y`` or None) is added to each
     simulated state before it is fed back. With ``check=False`` non-finite states
-    are left in place instead of raising.
+    are left in place instead of raising. ``n_traj``: rows are sample paths of
+    that many trajectories, one path after the other (for the error message).
     """
+    n_traj = len(Y) if n_traj is None else n_traj
     k = layout.n_steps
     start = int(n_init.min())
     for t in range(start, Y.shape[1]):
@@ -114,17 +275,58 @@ def _rollout(predict, layout, U, Y, n_init, lengths, noise=None, check=True):
         states = Y[active, t - k : t]
         inputs = U[active, t - k : t]
         X = layout.join(states, inputs)
-        pred = np.asarray(predict(X), dtype=np.float64).reshape(active.size, -1)
+        pred = _predict_rows(predict, X, check, t, active % n_traj)
         if noise is not None:
             pred = pred + noise[active, t]
         if check and not np.all(np.isfinite(pred)):
-            bad = active[~np.all(np.isfinite(pred), axis=1)][0]
+            bad = active[~np.all(np.isfinite(pred), axis=1)][0] % n_traj
             raise SimulationDivergedError(
                 f"the simulation diverged at time step {t}: trajectory {bad} reached "
                 "a non-finite state. The model is unstable in free run from this "
                 "initial window (check the inputs' range against the training data)."
             )
         Y[active, t] = pred
+    return Y
+
+
+def _least_squares_windows(predict, layout, U, Y, n_init):
+    """``Y`` with each record's first window fitted by :func:`fit_initial_states`.
+
+    The states of the first ``n_steps`` steps are chosen so that the model's
+    free run through the measured record ``Y[i, :n_init[i]]`` (the window
+    included) matches it in least squares; ``Y[i, :n_init[i]]`` then holds that
+    free run. A trajectory whose free run from its measured window is not finite
+    keeps its measured record, as a separate call would.
+    """
+    k, (n, _, s) = layout.n_steps, Y.shape
+    n0 = int(n_init.max())
+    Y_rec, U_rec = Y[:, :n0], U[:, :n0]
+    mask = (np.arange(n0)[None, :] < n_init[:, None])[:, :, None]
+
+    def run(Z, index):
+        Y_run = Y_rec[index].copy()
+        Y_run[:, :k] = Z.reshape(len(index), k, s)
+        first = np.full(len(index), k)
+        with np.errstate(all="ignore"):
+            return _rollout(
+                predict, layout, U_rec[index], Y_run, first, n_init[index], check=False
+            )
+
+    def residuals(Z, index):
+        with np.errstate(all="ignore"):
+            r = run(Z, index) - Y_rec[index]
+        return np.where(mask[index], r, 0.0).reshape(len(index), -1)
+
+    # Central differences need a step near the cube root of the precision the
+    # model computes in (float32 networks, float64 physics).
+    probe = np.asarray(predict(layout.join(Y[:1, :k], U[:1, :k])))
+    dtype = probe.dtype if np.issubdtype(probe.dtype, np.floating) else np.float64
+    rel_step = float(np.finfo(dtype).eps) ** (1 / 3)
+    Z, _ = fit_initial_states(residuals, Y[:, :k].reshape(n, k * s), rel_step=rel_step)
+    fitted = run(Z, np.arange(n))
+    finite = np.all(np.isfinite(np.where(mask, fitted, 0.0)), axis=(1, 2))
+    Y = Y.copy()
+    Y[finite, :n0] = np.where(mask[finite], fitted[finite], Y[finite, :n0])
     return Y
 
 
@@ -149,11 +351,11 @@ def simulate(
     inputs,
     initial,
     *,
+    init="measured",
     n_samples=None,
     random_state=None,
     return_std=False,
     noise_model=None,
-    init="measured",
 ):
     """Simulate a fitted next-state predictor in free run.
 
@@ -175,6 +377,19 @@ n_inputs) or list of (n_times_i, n_inputs) arrays
     initial : array-like of shape (n_init, n_states), (n_trajectories, n_init, \
 n_states) or list of (n_init_i, n_states) arrays
         Measured states of the first ``n_init >= n_steps`` time steps.
+    init : {"measured", "least_squares"}, default="measured"
+        How the simulation starts. ``"measured"``: from the newest ``n_steps``
+        measured steps of ``initial`` as they are. ``"least_squares"``: the
+        states of the first window are fitted so that the model's own free run
+        through all ``n_init`` measured steps matches them in least squares
+        (the initial-state estimate of prediction-error methods), and the
+        simulation continues from that fitted run; with ``n_init`` well above
+        ``n_steps`` this averages the measurement noise out of the starting
+        state. Fitted separately for each trajectory by
+        :func:`fit_initial_states` (the package's one initial-state solver),
+        all trajectories evaluated in one batch; a trajectory's fit never
+        depends on the others in the batch. A ``ConvergenceWarning`` says how
+        many did not converge.
     n_samples : int or None, default=None
         Number of sample paths through ``noise_model``: the noise is added to
         each simulated state and fed back. None simulates the deterministic path.
@@ -186,17 +401,6 @@ n_states) or list of (n_init_i, n_states) arrays
     noise_model : fitted noise model or None, default=None
         Supplies ``sample(n, random_state)``; needed for ``n_samples`` and
         ``return_std``.
-    init : {"measured", "least_squares"}, default="measured"
-        How the simulation starts. ``"measured"``: from the newest ``n_steps``
-        measured steps of ``initial`` as they are. ``"least_squares"``: the
-        states of the first window are fitted so that the model's own free run
-        through all ``n_init`` measured steps matches them in least squares
-        (the initial-state estimate of prediction-error methods), and the
-        simulation continues from that fitted run; with ``n_init`` well above
-        ``n_steps`` this averages the measurement noise out of the starting
-        state. Fitted separately for each trajectory (Levenberg-Marquardt,
-        central differences, all trajectories advanced in one batch); a
-        ``ConvergenceWarning`` names those that did not converge.
 
     Returns
     -------
@@ -209,30 +413,17 @@ n_states) or list of (n_init_i, n_states) arrays
     check_is_fitted(estimator)
     if not isinstance(init, str) or init not in INITS:
         raise ValueError(f"init must be one of {INITS}; got init={init!r}.")
-    U_list, form = _as_list(inputs, "inputs")
-    Y0_list, init_form = _as_list(initial, "initial")
-    if init_form != form or len(Y0_list) != len(U_list):
-        raise ValueError(
-            f"initial must match inputs: {len(U_list)} experiment(s) given as a "
-            f"{form} container, but initial holds {len(Y0_list)} as a {init_form} "
-            "container."
-        )
-    n_inputs = _check_widths(U_list, "inputs")
-    n_states = _check_widths(Y0_list, "initial")
+    U_list, Y0_list, form = check_trajectories(inputs, initial)
+    n_inputs, n_states = U_list[0].shape[1], Y0_list[0].shape[1]
     layout = _layout(estimator, n_states, n_inputs)
     lengths = np.array([len(u) for u in U_list])
     n_init = np.array([len(y) for y in Y0_list])
-    for i, (ni, n) in enumerate(zip(n_init, lengths, strict=True)):
+    for i, ni in enumerate(n_init):
         if ni < layout.n_steps:
             raise ValueError(
                 f"initial[{i}] holds {ni} time steps; the estimator reads windows "
                 f"of n_steps={layout.n_steps}, so at least {layout.n_steps} measured "
                 "steps must start the simulation."
-            )
-        if ni > n:
-            raise ValueError(
-                f"initial[{i}] holds {ni} time steps but inputs[{i}] only {n}; "
-                "inputs cover the whole experiment, initial window included."
             )
     if n_samples is not None:
         if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)):
@@ -254,20 +445,7 @@ n_states) or list of (n_init_i, n_states) arrays
         U[i, : lengths[i]] = U_list[i]
         Y[i, : n_init[i]] = Y0_list[i]
     if init == "least_squares":
-        first = np.full(n_traj, layout.n_steps)
-
-        def window_run(Y_run):
-            return _rollout(
-                estimator.predict, layout, U, Y_run, first, n_init, check=False
-            )
-
-        # Central differences need a step near the cube root of the precision
-        # the model computes in (float32 networks, float64 physics).
-        k = layout.n_steps
-        probe = np.asarray(estimator.predict(layout.join(Y[:1, :k], U[:1, :k])))
-        dtype = probe.dtype if np.issubdtype(probe.dtype, np.floating) else float
-        rel_step = float(np.finfo(dtype).eps) ** (1 / 3)
-        Y = fit_initial_windows(window_run, Y, n_init, k, rel_step=rel_step)
+        Y = _least_squares_windows(estimator.predict, layout, U, Y, n_init)
 
     if not stochastic:
         Y = _rollout(estimator.predict, layout, U, Y, n_init, lengths)
@@ -284,6 +462,7 @@ n_states) or list of (n_init_i, n_states) arrays
         np.tile(n_init, n_paths),
         np.tile(lengths, n_paths),
         noise=noise.reshape(n_paths * n_traj, n_max, n_states),
+        n_traj=n_traj,
     ).reshape(n_paths, n_traj, n_max, n_states)
     Yp = _measured_window(Yp, Y0_list)
     if return_std:
@@ -302,10 +481,10 @@ class SimulatorMixin:
         inputs,
         initial,
         *,
+        init="measured",
         n_samples=None,
         random_state=None,
         return_std=False,
-        init="measured",
     ):
         """Simulate the fitted model in free run from measured initial windows.
 
@@ -321,16 +500,16 @@ n_times, n_inputs) or list of 2-D arrays
         initial : array-like of shape (n_init, n_states), (n_trajectories, \
 n_init, n_states) or list of 2-D arrays
             Measured states of the first ``n_init`` time steps.
+        init : {"measured", "least_squares"}, default="measured"
+            Start from the measured window as it is, or from the first window
+            fitted by least squares to the whole measured initial record (see
+            :func:`skhybrid.simulation.simulate`).
         n_samples : int or None, default=None
             Number of sample paths through the noise model.
         random_state : int, RandomState instance or None, default=None
             Seed of the noise draws.
         return_std : bool, default=False
             Return the mean and standard deviation over sample paths.
-        init : {"measured", "least_squares"}, default="measured"
-            Start from the measured window as it is, or from the first window
-            fitted by least squares to the whole measured initial record (see
-            :func:`skhybrid.simulation.simulate`).
 
         Returns
         -------

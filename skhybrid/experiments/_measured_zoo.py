@@ -27,11 +27,7 @@ from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.experiments._measured_physics import fit_segments
 from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.experiments._runner import _interrupts_raise, _physical_params
-from skhybrid.hybrid._correction import (
-    _NARXSimulator,
-    _PhysicsCorrection,
-    _TransformedInputs,
-)
+from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
 
 __all__ = ["MeasuredContext", "ZooModel", "choose_and_refit", "fit_model", "zoo"]
 

@@ -19,7 +19,9 @@ Hybrid physics / neural / stochastic models of dynamical systems.
 alone, a linear state-space model, dense, recurrent and cyclic networks, and the
 physics+network hybrids), scores every model on interpolative and extrapolative
 test sets, and writes results.csv, results.json, the figures and a self-contained
-report.html to the output folder.
+report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox
+--data DIR` does the same for a measured benchmark, scored by its official
+protocol beside the published figures.
 """
 
 EPILOG = """\

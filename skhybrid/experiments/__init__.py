@@ -1,7 +1,10 @@
-"""The paper's experiments (section 6): systems, the model zoo, the runner, the report.
+"""The paper's experiments (section 6) and the measured benchmarks: one pipeline.
 
-Run them from the shell with ``skhybrid run pendulum --quick`` (see
-``skhybrid --help``), or from Python::
+Systems, their model zoos, the runner, the run folder and the report. The paper's
+simulated systems and the measured benchmarks (``cascaded-tanks``, ``emps``,
+``silverbox``, whose files live in a folder the user names) run the same way.
+Run them from the shell with ``skhybrid run pendulum --quick`` or ``skhybrid run
+emps --data ../shared/data --quick`` (see ``skhybrid --help``), or from Python::
 
     from skhybrid.experiments import run_experiment, write_report
     result = run_experiment("pendulum", quick=True)

@@ -484,6 +484,8 @@ def run_experiment(
         if bars is not None:
             bars.close()
     # Keep the zoo's order (and the oracle first) whatever order fits finished in.
+    result.fits = {k: result.fits[k] for k in zoo if k in result.fits}
+    result.params = {k: result.params[k] for k in zoo if k in result.params}
     for split in result.test_splits:
         preds = result.predictions[split]
         result.predictions[split] = {

@@ -326,9 +326,9 @@ class _TransformedInputs(BaseEstimator):
     """A fitted model fed transformed inputs (the Silverbox's ``[u(t), u(t+1)]``).
 
     The model is used as it is, already fitted (like
-    :class:`sklearn.frozen.FrozenEstimator`): ``fit`` does nothing, and the
-    fitted model's attributes (``params_``, ``rmse_``, ``n_epochs_``...) read
-    through.
+    :class:`sklearn.frozen.FrozenEstimator`): ``fit`` does nothing, ``clone``
+    returns the wrapper itself, and the fitted model's attributes
+    (``params_``, ``rmse_``, ``n_epochs_``...) read through.
 
     Parameters
     ----------
@@ -341,6 +341,12 @@ class _TransformedInputs(BaseEstimator):
     def __init__(self, estimator, transform=None):
         self.estimator = estimator
         self.transform = transform
+
+    def __sklearn_clone__(self):
+        # Frozen, as sklearn.frozen.FrozenEstimator: a clone (GridSearchCV, or a
+        # _PhysicsCorrection cloned) keeps the fitted model instead of
+        # resetting it.
+        return self
 
     def __sklearn_is_fitted__(self):
         try:

@@ -11,7 +11,6 @@ files; the tests on the real files skip where ``../shared/data`` is absent.
 import csv
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -20,7 +19,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sklearn.utils import Bunch
-from skorch.callbacks import Callback
 
 from skhybrid import cli
 from skhybrid.cli import main
@@ -31,17 +29,6 @@ from skhybrid.experiments._measured_physics import emps_physics
 REPO = Path(__file__).resolve().parents[2]
 TINY = ["dense NARX", "linear ARX", "physics", "physics + linear"]
 NO_DASK = "dask[distributed] is not installed: pip install 'skhybrid[dask]'"
-
-
-class CtrlCAtEpoch(Callback):
-    """Send this process a SIGINT (a Ctrl-C) at the end of epoch ``epoch``."""
-
-    def __init__(self, epoch):
-        self.epoch = epoch
-
-    def on_epoch_end(self, net, **kwargs):
-        if len(net.history) == self.epoch:
-            signal.raise_signal(signal.SIGINT)
 
 
 def _axis_records(n=1600, seed=0):
@@ -81,7 +68,7 @@ class SyntheticAxis(EMPS):
         }
 
 
-def _small_dense(interrupt=False):
+def _small_dense(ctrl_c=None):
     from skhybrid.neural import DenseRegressor
 
     def make(quick, seed):
@@ -90,19 +77,21 @@ def _small_dense(interrupt=False):
             max_epochs=4,
             batch_size=256,
             random_state=seed,
-            callbacks=[CtrlCAtEpoch(2)] if interrupt else None,
+            callbacks=None if ctrl_c is None else [ctrl_c(2)],
         )
 
     return make
 
 
 @pytest.fixture
-def axis(monkeypatch):
-    """Register :class:`SyntheticAxis` as ``emps``; ``axis(True)`` interrupts."""
+def axis(monkeypatch, ctrl_c_at_epoch):
+    """Register :class:`SyntheticAxis` as ``emps``; ``axis(True)`` presses Ctrl-C
+    in the dense NARX's second epoch (as the paper systems' tests do)."""
     monkeypatch.setitem(MEASURED_SYSTEMS, "emps", SyntheticAxis())
 
     def use(interrupt=False):
-        monkeypatch.setattr(_measured_zoo, "_dense", _small_dense(interrupt))
+        dense = _small_dense(ctrl_c_at_epoch if interrupt else None)
+        monkeypatch.setattr(_measured_zoo, "_dense", dense)
 
     use()
     return use
@@ -426,3 +415,10 @@ def test_cascaded_tanks_quick_run_on_the_real_files(shared_data_dir, tmp_path):
     }
     assert (out / "cascaded-tanks.png").stat().st_size > 10_000
     assert main([*argv, "--out", str(out)]) == 2  # finished: kept
+
+
+def test_cli_knows_every_system_by_name():
+    from skhybrid.experiments import SYSTEMS
+
+    assert cli.SIMULATED_SYSTEMS == tuple(SYSTEMS)
+    assert cli.MEASURED_SYSTEMS == tuple(MEASURED_SYSTEMS)

@@ -193,6 +193,27 @@ def test_read_only_out_is_refused_before_training(tmp_path, capsys, no_training)
     _one_error_line(capsys, f"--out {locked} is not writable")
 
 
+def test_unwritable_out_is_refused_before_training_whoever_runs_it(
+    tmp_path, capsys, no_training, monkeypatch
+):
+    # Root writes into read-only folders: refuse the lock's creation instead, as
+    # the file system does for a read-only folder.
+    import errno
+
+    real_open = os.open
+
+    def read_only(path, *args, **kwargs):
+        if str(path).startswith(str(tmp_path / "ro")):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", read_only)
+    (tmp_path / "ro").mkdir()
+    assert _run(tmp_path / "ro") == 2
+    _one_error_line(capsys, f"--out {tmp_path / 'ro'} is not writable")
+    assert list((tmp_path / "ro").iterdir()) == []
+
+
 def test_busy_out_is_refused_before_training(tmp_path, capsys, no_training):
     # Another run holds the folder: a live process's pid in its lock.
     out = tmp_path / "run"

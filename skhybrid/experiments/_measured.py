@@ -694,16 +694,26 @@ def run_measured(name, data, out, *, quick=False, seed=0, n_jobs=1, overwrite=Fa
         raise ValueError(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
         )
+    import shlex
+
+    import skhybrid
+
     system = MEASURED_SYSTEMS[name]
     settings = system.default_settings(quick, seed)
+    # The identity and command of `skhybrid run`, so that either carries on a
+    # run the other left unfinished.
     identity = {
+        "skhybrid": skhybrid.__version__,
         "systems": [name],
+        "quick": settings.quick,
+        "seed": settings.seed,
         "settings": settings.to_dict(),
-        "data": str(Path(data).resolve()),
     }
+    words = ["run", name, "--data", str(data), "--out", str(out)]
+    words += ["--quick"] * settings.quick + ["--seed", str(settings.seed)]
     folder = RunFolder(out).prepare()
     try:
-        folder.start(identity, f"run_measured({name!r})", overwrite=overwrite)
+        folder.start(identity, "skhybrid " + shlex.join(words), overwrite=overwrite)
         result = run_experiment(
             system, settings=settings, n_jobs=n_jobs, folder=folder, data=data
         )

@@ -443,3 +443,15 @@ def test_cli_knows_every_system_by_name():
 
     assert cli.SIMULATED_SYSTEMS == tuple(SYSTEMS)
     assert cli.MEASURED_SYSTEMS == tuple(MEASURED_SYSTEMS)
+
+
+def test_run_measured_writes_a_folder_the_command_carries_on(tmp_path, axis, capsys):
+    from skhybrid.experiments import run_measured
+
+    out = tmp_path / "run"
+    summary = run_measured("emps", tmp_path, out, quick=True)
+    assert summary["selected_model"] in TINY
+    assert _finished(out) == TINY
+    # The command sees the same run: --resume rewrites its report.
+    assert _run(out, "--resume") == 0
+    assert "resuming: 4 of 4" in capsys.readouterr().out

@@ -19,7 +19,9 @@ Hybrid physics / neural / stochastic models of dynamical systems.
 alone, a linear state-space model, dense, recurrent and cyclic networks, and the
 physics+network hybrids), scores every model on interpolative and extrapolative
 test sets, and writes results.csv, results.json, the figures and a self-contained
-report.html to the output folder.
+report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox
+--data DIR` does the same for a measured benchmark, scored by its official
+protocol beside the published figures.
 """
 
 EPILOG = """\
@@ -30,6 +32,8 @@ examples:
   skhybrid run all --n-jobs 2 --seed 1   every system, two models at a time
   skhybrid run pendulum --resume         finish an interrupted run, same report
   skhybrid run all --dask HOST:8786      fit the models on a Dask cluster
+  skhybrid run emps --data ../shared/data --quick
+                                         a measured benchmark (files in --data)
 
 Every model's scores and fitted model are written to --out as soon as it
 finishes; after a Ctrl-C, the same command (or with --resume) carries on.
@@ -77,10 +81,15 @@ def _folder(text):
     return text
 
 
-def _build_parser():
-    from skhybrid.experiments import SYSTEMS
-    from skhybrid.experiments._measured import MEASURED_SYSTEMS
+#: The systems ``skhybrid run`` knows: the paper's simulated ones, then the
+#: measured benchmarks (the keys of ``SYSTEMS`` and ``MEASURED_SYSTEMS``; a test
+#: checks). Named here so that arguments and the output folder are checked
+#: before the experiments (torch, the zoos) are imported.
+SIMULATED_SYSTEMS = ("pendulum", "double-pendulum", "dc-motor")
+MEASURED_SYSTEMS = ("cascaded-tanks", "emps", "silverbox")
 
+
+def _build_parser():
     parser = _Parser(
         prog="skhybrid",
         description=DESCRIPTION,
@@ -99,10 +108,10 @@ def _build_parser():
     run.error = parser.error  # one-line errors for the subcommand too
     run.add_argument(
         "system",
-        choices=[*SYSTEMS, "all", *MEASURED_SYSTEMS],
+        choices=[*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS],
         metavar="SYSTEM",
         help="one of: "
-        + ", ".join([*SYSTEMS, "all", *MEASURED_SYSTEMS])
+        + ", ".join([*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS])
         + " (the last three are measured benchmarks and need --data)",
     )
     run.add_argument(
@@ -214,32 +223,56 @@ DASK_REQUIREMENTS = {
 
 
 def _list(out):
-    from skhybrid.experiments import SYSTEMS
+    from skhybrid import experiments
 
-    for name, system in SYSTEMS.items():
+    for name, system in experiments.SYSTEMS.items():
         splits = ", ".join(system.split_descriptions())
         out.write(f"{name:<16} {system.title} (section {system.section}; {splits})\n")
+    for name, system in experiments.MEASURED_SYSTEMS.items():
+        out.write(f"{name:<16} {system.title} (needs --data DIR)\n")
 
 
 def _error(message):
     sys.stderr.write(f"skhybrid: error: {message}\n")
 
 
-def _settings(quick, seed, noise_type=None):
-    """The run's ExperimentSettings."""
+def _settings(quick, seed, noise_type=None, system=None):
+    """The run's settings: ExperimentSettings, or a measured system's own."""
     from dataclasses import replace
 
     from skhybrid.experiments import ExperimentSettings
 
+    if system is not None and getattr(system, "measured", False):
+        return system.default_settings(quick, seed)
     settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(seed)
     return replace(settings, noise_type=noise_type)
+
+
+def _system(name):
+    from skhybrid.experiments._runner import get_system
+
+    return get_system(name)
+
+
+def _n_models(names, settings_of):
+    """Models in the run: the zoo of each system."""
+    from skhybrid import experiments
+
+    total = 0
+    for name in names:
+        system = _system(name)
+        if getattr(system, "measured", False):
+            total += len(system.model_zoo(settings_of(name)))
+        else:
+            total += len(experiments.model_zoo(system, settings_of(name)))
+    return total
 
 
 def _identity(names, quick, seed, noise_type=None):
     """What makes two runs the same: a resumed run must match it."""
     import skhybrid
 
-    settings = _settings(quick, seed, noise_type)
+    settings = _settings(quick, seed, noise_type, _system(names[0]))
     return {
         "skhybrid": skhybrid.__version__,
         "systems": names,
@@ -321,15 +354,31 @@ def main(argv=None):
             _error(f"{verb} needs {line}")
         return 2
 
-    from skhybrid.experiments._measured import MEASURED_SYSTEMS
-
-    if args.system in MEASURED_SYSTEMS:
-        return _run_measured(args)
-
-    from skhybrid.experiments import SYSTEMS
     from skhybrid.experiments._store import RunFolder, RunFolderError
 
-    names = list(SYSTEMS) if args.system == "all" else [args.system]
+    if args.system in MEASURED_SYSTEMS:
+        if args.data is None:
+            _error(
+                f"{args.system} is a measured benchmark: pass --data DIR, the folder "
+                "holding its files (for example a clone's ../shared/data, with the "
+                "subfolders silverbox/, emps/ and cascaded_tanks/); skhybrid ships "
+                "no data and downloads nothing"
+            )
+            return 2
+        if args.noise_type is not None:
+            _error(
+                f"--noise-type sets the simulators' noise; {args.system} is a "
+                "measured benchmark: drop --noise-type"
+            )
+            return 2
+    elif args.data is not None:
+        _error(
+            f"--data names a measured benchmark's files; {args.system} is "
+            "simulated: drop --data, or run one of " + ", ".join(MEASURED_SYSTEMS)
+        )
+        return 2
+
+    names = list(SIMULATED_SYSTEMS) if args.system == "all" else [args.system]
     command = "skhybrid " + shlex.join(argv)
     folder = RunFolder(args.out)
     try:
@@ -356,16 +405,13 @@ def main(argv=None):
 
 
 def _run(args, argv, names, command, folder):
-    from skhybrid.experiments import (
-        SYSTEMS,
-        check_claims,
-        model_zoo,
-        write_report,
-    )
+    from skhybrid.experiments import check_claims, write_report
 
     identity = _identity(names, args.quick, args.seed, args.noise_type)
-    settings = _settings(args.quick, args.seed, args.noise_type)
-    n_models = sum(len(model_zoo(SYSTEMS[name], settings)) for name in names)
+    n_models = _n_models(
+        names,
+        lambda name: _settings(args.quick, args.seed, args.noise_type, _system(name)),
+    )
     start = time.perf_counter()
     try:
         n_finished = folder.start(
@@ -389,7 +435,11 @@ def _run(args, argv, names, command, folder):
                 address = client.scheduler.address
                 sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
                 n_jobs = -1  # every worker of the cluster
-            results = _fit_all(args, names, folder, n_jobs=n_jobs)
+            try:
+                results = _fit_all(args, names, folder, n_jobs=n_jobs)
+            except FileNotFoundError as exc:  # a measured benchmark's files
+                _error(str(exc))
+                return 2
         wall = time.perf_counter() - start
         paths = write_report(results, folder.path, command=command, wall_time=wall)
         folder.complete()
@@ -402,12 +452,17 @@ def _run(args, argv, names, command, folder):
         return 130
     total = time.perf_counter() - start
     sys.stdout.write(f"wrote {paths['html']} ({total:.1f} s)\n")
-    if args.quick:
+    if args.quick and args.system not in MEASURED_SYSTEMS:
         sys.stdout.write(
             "  --quick trains on small data for a few epochs: the paper's claims "
             "below are judged on the full run\n"
         )
     for result in results:
+        if getattr(result.system, "measured", False):
+            sys.stdout.write(
+                f"  {result.system.name}: chosen on the validation tail of the "
+                f"estimation record: {result.selected_model()}\n"
+            )
         for claim in check_claims(result):
             word = "holds" if claim["passed"] else "FAILS"
             sys.stdout.write(f"  [{word}] {claim['claim']}: {claim['detail']}\n")
@@ -420,45 +475,14 @@ def _fit_all(args, names, folder, *, n_jobs):
     return [
         experiments.run_experiment(
             name,
-            settings=_settings(args.quick, args.seed, args.noise_type),
+            settings=_settings(args.quick, args.seed, args.noise_type, _system(name)),
             n_jobs=n_jobs,
             progress=not args.no_progress,
             folder=folder,
+            data=args.data,
         )
         for name in names
     ]
-
-
-def _run_measured(args):
-    """``skhybrid run cascaded-tanks|emps|silverbox --data DIR``."""
-    from skhybrid.experiments._measured import run_measured
-
-    if args.data is None:
-        _error(
-            f"{args.system} is a measured benchmark: pass --data DIR, the folder "
-            "holding its files (for example a clone's ../shared/data, with the "
-            "subfolders silverbox/, emps/ and cascaded_tanks/); skhybrid ships no "
-            "data and downloads nothing"
-        )
-        return 2
-    out = args.out
-    done = os.path.exists(os.path.join(out, "results.json"))
-    if done and not (args.overwrite or args.resume):
-        _error(f"{out} already holds results; pass --overwrite to replace them")
-        return 2
-    try:
-        run_measured(
-            args.system,
-            args.data,
-            out,
-            quick=args.quick,
-            seed=args.seed,
-            log=lambda line: sys.stdout.write(line + "\n"),
-        )
-    except FileNotFoundError as exc:
-        _error(str(exc))
-        return 2
-    return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

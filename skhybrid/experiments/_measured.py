@@ -1,32 +1,51 @@
-"""Measured benchmarks in ``skhybrid run``: splits, model zoo, published figures.
+"""Measured benchmarks as systems of ``skhybrid run``: data, zoo hooks, report.
 
-Each system loads its benchmark files from a folder the user names (``--data``),
-uses the official split and initialisation window of the ``nonlinear-benchmarks``
-loader (v1.0.1), fits every model on the estimation record only, simulates it in
-free run on each test record from the first ``n_init`` measured outputs, and scores
-``RMSE(y[n_init:], y_model[n_init:])`` in the official units. Every choice (window
-and segment lengths, the state-space hybrid's horizon, the model quoted) is made
-on a validation tail of the estimation record (its last 25 %), never on a test
-record; the zoo itself is in :mod:`skhybrid.experiments._measured_zoo`.
+A measured benchmark runs through the same pipeline as the paper's simulated
+systems (:func:`~skhybrid.experiments.run_experiment`, the run folder with its
+lock and resume, joblib or Dask, progress, :func:`write_report`); what is its own
+is data and hooks of its :class:`MeasuredSystem`:
+
+- it loads its benchmark files from a folder the user names (``--data``), with
+  the official split and initialisation window of the ``nonlinear-benchmarks``
+  loader (v1.0.1);
+- its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on the
+  estimation record only, choosing every candidate (window and segment lengths,
+  the state-space hybrid's horizon) on a validation tail of that record (its
+  last 25 %), never on a test record;
+- each model is simulated in free run on each test record from the first
+  ``n_init`` measured outputs and scored by ``RMSE(y[n_init:],
+  y_model[n_init:])`` in the official units, beside the published figures.
 """
 
-import json
-import time
+import base64
+import html
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from skhybrid.datasets import load_cascaded_tanks, load_emps, load_silverbox
-from skhybrid.exceptions import SimulationDivergedError
-from skhybrid.experiments._greybox import (
+from skhybrid.experiments._measured_physics import (
     emps_physics,
     silverbox_physics,
     tanks_physics,
     with_next_input,
 )
-from skhybrid.experiments._measured_zoo import _rmse, fit_zoo
+from skhybrid.experiments._measured_zoo import (
+    MeasuredContext,
+    _rmse,
+    fit_model,
+    zoo,
+)
 
-__all__ = ["MEASURED_SYSTEMS", "PUBLISHED", "run_measured"]
+__all__ = [
+    "MEASURED_SYSTEMS",
+    "PUBLISHED",
+    "MeasuredResult",
+    "MeasuredSettings",
+    "MeasuredSystem",
+    "run_measured",
+]
 
 #: Published free-run test RMSE in the official units, with sources (data README).
 PUBLISHED = {
@@ -67,9 +86,58 @@ PUBLISHED = {
 }
 
 
-class MeasuredSystem:
-    """A measured benchmark: loader, official split, physics and units."""
+@dataclass(frozen=True)
+class MeasuredSettings:
+    """What makes two runs of a measured benchmark the same.
 
+    Parameters
+    ----------
+    quick : bool, default=False
+        Shorter fits, fewer candidates (and a shorter Silverbox estimation
+        record).
+    seed : int, default=0
+        Seed of the networks.
+    """
+
+    quick: bool = False
+    seed: int = 0
+
+    def with_seed(self, seed):
+        """The same settings with another seed.
+
+        Parameters
+        ----------
+        seed : int
+            Seed of the networks.
+
+        Returns
+        -------
+        settings : MeasuredSettings
+            A copy with ``seed``.
+        """
+        return replace(self, seed=seed)
+
+    def to_dict(self):
+        """The settings as a JSON-ready dict.
+
+        Returns
+        -------
+        settings : dict
+            Every field.
+        """
+        return asdict(self)
+
+
+class MeasuredSystem:
+    """A measured benchmark: loader, official split, physics, units and zoo hooks.
+
+    The runner calls :meth:`default_settings`, :meth:`new_result`,
+    :meth:`model_zoo` and :meth:`job`; subclasses set ``name``, ``title``,
+    ``unit`` and ``scale`` and implement :meth:`load` and :meth:`physics`.
+    """
+
+    #: Runs on measured records (``--data``), not on simulated splits.
+    measured = True
     name = ""
     title = ""
     unit = ""
@@ -94,6 +162,108 @@ class MeasuredSystem:
     def hybrid_candidates(self, quick=False):
         """Settings of the state-space hybrids to try, by label (empty: none)."""
         return {}
+
+    def published(self):
+        """The published test figures, ``{split: {label: (rmse, source)}}``."""
+        return PUBLISHED.get(self.name, {})
+
+    # -- the runner's hooks ----------------------------------------------------
+    def default_settings(self, quick=False, seed=0):
+        """The run's settings.
+
+        Parameters
+        ----------
+        quick : bool, default=False
+            Shorter fits.
+        seed : int, default=0
+            Seed of the networks.
+
+        Returns
+        -------
+        settings : MeasuredSettings
+            ``quick`` and ``seed``.
+        """
+        return MeasuredSettings(quick=bool(quick), seed=int(seed))
+
+    def new_result(self, settings, data):
+        """Load the records and return an empty :class:`MeasuredResult`.
+
+        Parameters
+        ----------
+        settings : MeasuredSettings
+            ``quick`` shortens the Silverbox's estimation record.
+        data : str or Path
+            Folder holding the benchmark files.
+
+        Returns
+        -------
+        result : MeasuredResult
+            The records, ``n_init`` and ``dt``; no model yet.
+        """
+        if data is None:
+            raise ValueError(
+                f"data must name the folder holding the {self.name} benchmark "
+                "files (for example ../shared/data); got data=None."
+            )
+        train, tests, bunch = self.load(data, quick=settings.quick)
+        result = MeasuredResult(self, settings, train, tests, bunch.n_init, bunch.dt)
+        if "test_arrow_full" in tests:
+            first, count = _hull_exit(train, tests["test_arrow_full"], bunch.n_init)
+            result.hull = {
+                "test_arrow_full": {"first_outside": first, "n_outside": count}
+            }
+        return result
+
+    def model_zoo(self, settings):
+        """The zoo's models (see :func:`skhybrid.experiments._measured_zoo.zoo`).
+
+        Parameters
+        ----------
+        settings : MeasuredSettings
+            ``quick`` gives fewer candidates.
+
+        Returns
+        -------
+        zoo : dict of str to ZooModel
+            In the order the report lists them.
+        """
+        return zoo(self, settings.quick)
+
+    def job(self, name, model, result, deps, sink=None):
+        """The joblib call that chooses, refits and simulates one model.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        model : ZooModel
+            Its candidates and fit.
+        result : MeasuredResult
+            The records and settings.
+        deps : dict of str to dict
+            The fits of the models it requires.
+        sink : object or None, default=None
+            Where networks report their epochs.
+
+        Returns
+        -------
+        call : tuple
+            A :func:`joblib.delayed` call of
+            :func:`~skhybrid.experiments._measured_zoo.fit_model`.
+        """
+        from joblib import delayed
+
+        u, y = result.train
+        ctx = MeasuredContext(
+            self,
+            u,
+            y,
+            int(result.n_init),
+            float(result.dt),
+            result.settings.quick,
+            result.settings.seed,
+        )
+        return delayed(fit_model)(name, model, ctx, deps, result.tests, sink)
 
 
 def _hybrid(horizon, hidden, *, quick, **extra):
@@ -194,6 +364,166 @@ class Silverbox(MeasuredSystem):
 MEASURED_SYSTEMS = {cls.name: cls() for cls in (CascadedTanks, EMPS, Silverbox)}
 
 
+class MeasuredResult:
+    """Everything one run of one measured benchmark produced.
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The benchmark.
+    settings : MeasuredSettings
+        ``quick`` and ``seed``.
+    train : tuple of ndarray
+        The estimation record ``(u, y)``.
+    tests : dict of str to tuple of ndarray
+        ``{split: (u, y)}``: the official test records.
+    n_init : int
+        Samples of the official initialisation window.
+    dt : float
+        Sample period.
+
+    Attributes
+    ----------
+    predictions : dict of str to dict of str to ndarray
+        ``predictions[split][model]``: the free run over the test record (NaN
+        where it failed), in the data's units.
+    rows : list of dict
+        One row per model and test record (``results.csv``).
+    params : dict of str to dict
+        Fitted physical parameters and standard errors.
+    fits : dict of str to dict
+        Fit time, epochs, warnings, validation RMSE and the choices of each
+        model.
+    hull : dict
+        On the Silverbox arrow: the first test sample whose window leaves the
+        training hull, and how many do.
+    wall_time : float
+        Seconds for the whole run.
+    """
+
+    def __init__(self, system, settings, train, tests, n_init, dt):
+        self.system = system
+        self.settings = settings
+        self.train = train
+        self.tests = tests
+        self.n_init = int(n_init)
+        self.dt = float(dt)
+        self.predictions = {split: {} for split in tests}
+        self.rows = []
+        self.params = {}
+        self.fits = {}
+        self.hull = {}
+        self.wall_time = float("nan")
+
+    @property
+    def test_splits(self):
+        return list(self.tests)
+
+    def test_rmse(self, split, model):
+        """Free-run RMSE of ``model`` on the test record ``split`` (official units).
+
+        Parameters
+        ----------
+        split : str
+            A test record's name.
+        model : str
+            A model's name.
+
+        Returns
+        -------
+        rmse : float
+            NaN where the free run failed.
+        """
+        y = self.tests[split][1]
+        return self.system.scale * _rmse(y, self.predictions[split][model], self.n_init)
+
+    def validation_rmse(self):
+        """``{model: validation-tail RMSE}`` (official units) of the quoted models."""
+        return {
+            model: fit["validation_rmse"]
+            for model, fit in self.fits.items()
+            if fit.get("validation_rmse") is not None
+            and np.isfinite(fit["validation_rmse"])
+        }
+
+    def selected_model(self):
+        """The model to quote: the lowest free-run RMSE on the validation tail."""
+        validation = self.validation_rmse()
+        return min(validation, key=validation.get) if validation else None
+
+    def model_rows(self, split, model):
+        """The scores of one model on one test record, as rows of results.csv.
+
+        Parameters
+        ----------
+        split : str
+            A test record's name.
+        model : str
+            A model's name.
+
+        Returns
+        -------
+        rows : list of dict
+            One row (the benchmarks have one output).
+        """
+        fit = self.fits.get(model, {})
+        return [
+            {
+                "system": self.system.name,
+                "seed": self.settings.seed,
+                "model": model,
+                "split": split,
+                "output": "y",
+                "rmse": self.test_rmse(split, model),
+                "unit": self.system.unit,
+                "validation_rmse": fit.get("validation_rmse"),
+                "fit_time_s": fit.get("fit_time"),
+                "n_epochs": fit.get("n_epochs"),
+            }
+        ]
+
+    def summary(self):
+        """The system's entry of ``results.json``.
+
+        Returns
+        -------
+        summary : dict
+            Test RMSE by record and model, the published figures, the physics'
+            parameters, the choices, the validation RMSE, the selected model,
+            fit times, the hull exit and the rows.
+        """
+        physics = self.params.get("physics", {})
+        return {
+            "title": self.system.title,
+            "unit": self.system.unit,
+            "quick": self.settings.quick,
+            "seed": self.settings.seed,
+            "settings": self.settings.to_dict(),
+            "n_init": self.n_init,
+            "dt": self.dt,
+            "n_train": len(self.train[0]),
+            "test_rmse": {
+                split: {model: self.test_rmse(split, model) for model in preds}
+                for split, preds in self.predictions.items()
+            },
+            "published": {
+                split: {k: {"rmse": v, "source": s} for k, (v, s) in pub.items()}
+                for split, pub in self.system.published().items()
+            },
+            "physics_params": {k: p["value"] for k, p in physics.items()},
+            "physics_params_std": {k: p["std"] for k, p in physics.items()},
+            "selection": {k: fit.get("selection") for k, fit in self.fits.items()},
+            "validation_rmse": self.validation_rmse(),
+            "selected_model": self.selected_model(),
+            "fit_time_s": {k: fit.get("fit_time") for k, fit in self.fits.items()},
+            "hull": self.hull,
+            "wall_time_s": self.wall_time,
+            "params": self.params,
+            "fits": self.fits,
+            "results": self.rows,
+        }
+
+
 def _hull_exit(train, test, n_init):
     """First test index whose ``[y(t), y(t-1), u(t)]`` leaves the training hull."""
     from skhybrid.model_selection import in_convex_hull
@@ -207,108 +537,36 @@ def _hull_exit(train, test, n_init):
     return (int(outside[0]) if outside.size else None), int(outside.size)
 
 
-def run_measured(name, data, out, *, quick=False, seed=0, log=print):
-    """Fit the zoo on a measured system, score it, and write the report to ``out``.
+def measured_figure(result, out_dir):
+    """Draw the test records against each model's free run; return the path.
 
     Parameters
     ----------
-    name : str
-        One of :data:`MEASURED_SYSTEMS`.
-    data : str or pathlib.Path
-        Folder holding the benchmark files (for example ``../shared/data``).
-    out : str or pathlib.Path
-        Output folder: ``results.json``, ``report.html`` and ``<name>.png``.
-    quick : bool, default=False
-        Shorter fits (and a shorter Silverbox estimation record).
-    seed : int, default=0
-        Seed of the networks.
-    log : callable, default=print
-        Receives progress lines.
+    result : MeasuredResult
+        A finished run.
+    out_dir : Path
+        Where ``<system>.png`` is written.
 
     Returns
     -------
-    results : dict
-        The content of ``results.json``.
+    path : Path
+        The figure's file.
     """
-    if name not in MEASURED_SYSTEMS:
-        raise ValueError(
-            f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
-        )
-    system = MEASURED_SYSTEMS[name]
-    wall = time.perf_counter()
-    train, tests, bunch = system.load(data, quick=quick)
-    n_init, dt = bunch.n_init, bunch.dt
-    log(f"{system.title}: {len(train[0])} estimation samples, n_init = {n_init}")
-    models, notes, fit_time, validation = fit_zoo(
-        system, train, n_init, dt, quick=quick, seed=seed, log=log
-    )
-    sims, scores = {}, {}
-    for split, (u, y) in tests.items():
-        sims[split], scores[split] = {}, {}
-        for label, model in models.items():
-            try:
-                pred = np.ravel(model.simulate(u, y[:n_init]))
-                scores[split][label] = system.scale * _rmse(y, pred, n_init)
-                sims[split][label] = pred
-            except (SimulationDivergedError, FloatingPointError, ValueError) as exc:
-                scores[split][label] = float("nan")
-                notes.setdefault(label, {})["diverged_on_" + split] = str(exc)
-            log(f"  {split:16s} {label:18s} {scores[split][label]:9.4f} {system.unit}")
-    hull = {}
-    if "test_arrow_full" in tests:
-        first, count = _hull_exit(train, tests["test_arrow_full"], n_init)
-        hull = {"test_arrow_full": {"first_outside": first, "n_outside": count}}
-    physics = models["physics"]
-    # The model to quote: the lowest free-run RMSE on the validation tail.
-    selected = min(validation, key=validation.get)
-    log(f"  selected on the validation tail: {selected}")
-    results = {
-        "system": name,
-        "title": system.title,
-        "unit": system.unit,
-        "quick": quick,
-        "seed": seed,
-        "n_init": n_init,
-        "dt": dt,
-        "n_train": len(train[0]),
-        "test_rmse": scores,
-        "published": {
-            split: {k: {"rmse": v, "source": s} for k, (v, s) in pub.items()}
-            for split, pub in PUBLISHED[name].items()
-        },
-        "physics_params": physics.params_,
-        "physics_params_std": physics.params_std_,
-        "selection": notes,
-        "validation_rmse": validation,
-        "selected_model": selected,
-        "fit_time_s": fit_time,
-        "hull": hull,
-        "wall_time_s": time.perf_counter() - wall,
-    }
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    figure = _figure(system, tests, sims, n_init, dt, hull, out / f"{name}.png")
-    (out / "results.json").write_text(json.dumps(results, indent=2, default=float))
-    _html(results, figure.name, out / "report.html")
-    log(f"wrote {out / 'report.html'} ({results['wall_time_s']:.1f} s)")
-    return results
+    # The object-oriented Figure API draws without pyplot: no backend is chosen
+    # and a user's own plotting session is left alone.
+    from matplotlib.figure import Figure
 
-
-def _figure(system, tests, sims, n_init, dt, hull, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(
-        2, len(tests), figsize=(7 * len(tests), 6), sharex="col", squeeze=False
-    )
+    system, tests, n_init, dt = result.system, result.tests, result.n_init, result.dt
+    fig = Figure(figsize=(7 * len(tests), 6))
+    axes = fig.subplots(2, len(tests), sharex="col", squeeze=False)
     for j, (split, (_u, y)) in enumerate(tests.items()):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
         top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
         errors = {}
-        for i, (label, pred) in enumerate(sims[split].items()):
+        for i, (label, pred) in enumerate(result.predictions[split].items()):
+            if not np.all(np.isfinite(pred)):
+                continue  # a failed free run is reported in the tables
             top.plot(t, system.scale * pred, lw=0.8, label=label, color=f"C{i}")
             err = system.scale * (pred - np.ravel(y))
             err[:n_init] = np.nan
@@ -323,8 +581,9 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         bottom.legend(fontsize=7)
         for ax in (top, bottom):
             ax.axvspan(0, n_init * dt, color="0.9")
-            if split in hull and hull[split]["first_outside"] is not None:
-                ax.axvline(hull[split]["first_outside"] * dt, color="r", ls="--")
+            hull = result.hull.get(split)
+            if hull and hull["first_outside"] is not None:
+                ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
         top.set_title(f"{system.title}: {split}")
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
@@ -332,44 +591,134 @@ def _figure(system, tests, sims, n_init, dt, hull, path):
         bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
         top.legend(fontsize=7)
     fig.tight_layout()
+    path = Path(out_dir) / f"{system.name}.png"
     fig.savefig(path, dpi=90)
-    plt.close(fig)
     return path
 
 
-def _html(results, figure, path):
-    unit = results["unit"]
+def measured_section(result, figure):
+    """The report's HTML section of a measured run.
+
+    Parameters
+    ----------
+    result : MeasuredResult
+        A finished run.
+    figure : Path
+        Its figure, embedded in the page.
+
+    Returns
+    -------
+    section : str
+        HTML.
+    """
+    summary = result.summary()
+    unit = html.escape(summary["unit"])
     rows = []
-    for split, scores in results["test_rmse"].items():
+    for split, scores in summary["test_rmse"].items():
         for model, value in scores.items():
+            validation = summary["validation_rmse"].get(model)
             rows.append(
-                f"<tr><td>{split}</td><td>{model}</td><td>{value:.4g}</td><td>ours</td></tr>"
+                f"<tr><td>{html.escape(split)}</td><td>{html.escape(model)}</td>"
+                f"<td>{value:.4g}</td>"
+                f"<td>{'' if validation is None else format(validation, '.4g')}</td>"
+                "<td>ours</td></tr>"
             )
-        for label, entry in results["published"].get(split, {}).items():
+        for label, entry in summary["published"].get(split, {}).items():
             rows.append(
-                f"<tr><td>{split}</td><td>{label}</td><td>{entry['rmse']:.4g}</td>"
-                f"<td>{entry['source']}</td></tr>"
+                f"<tr><td>{html.escape(split)}</td><td>{html.escape(label)}</td>"
+                f"<td>{entry['rmse']:.4g}</td><td></td>"
+                f"<td>{html.escape(entry['source'])}</td></tr>"
             )
     params = ", ".join(
-        f"{k} = {v:.5g} &plusmn; {results['physics_params_std'][k]:.2g}"
-        for k, v in results["physics_params"].items()
+        f"{html.escape(k)} = {float(v):.5g} &plusmn; "
+        f"{float(summary['physics_params_std'][k] or 0.0):.2g}"
+        for k, v in summary["physics_params"].items()
+        if np.ndim(v) == 0
     )
-    html = f"""<!doctype html><html><head><meta charset="utf-8">
-<title>{results["title"]}</title></head><body>
-<h1>{results["title"]}</h1>
+    data = base64.b64encode(Path(figure).read_bytes()).decode("ascii")
+    selected = summary["selected_model"]
+    return f"""<h2>{html.escape(summary["title"])}</h2>
 <p>Free-run simulation RMSE on the official test record(s) [{unit}], the first
-{results["n_init"]} measured samples initialise the state (official protocol).
+{summary["n_init"]} measured samples initialise the state (official protocol).
 Every model was fitted on the estimation record only; every choice (window and
 segment lengths, the hybrid's horizon T, the model quoted) was made on its last
 25 %, with the candidates fitted on the first 75 %.
-quick = {results["quick"]}, seed = {results["seed"]},
-{results["wall_time_s"]:.0f} s.</p>
-<table border="1" cellpadding="3"><tr><th>test</th><th>model</th>
-<th>RMSE [{unit}]</th><th>source</th></tr>
+quick = {summary["quick"]}, seed = {summary["seed"]},
+{summary["wall_time_s"]:.0f} s.</p>
+<table><tr><th>test</th><th>model</th><th>RMSE [{unit}]</th>
+<th>validation RMSE [{unit}]</th><th>source</th></tr>
 {"".join(rows)}</table>
 <p>Chosen on the validation tail of the estimation record (never on a test
-record): <b>{results["selected_model"]}</b>.</p>
+record): <b>{html.escape(str(selected))}</b>.</p>
 <p>Physics parameters: {params}</p>
-<img src="{figure}" style="max-width:100%">
-</body></html>"""
-    Path(path).write_text(html)
+<h4>Test records and free runs</h4>
+<img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>
+"""
+
+
+def run_measured(name, data, out, *, quick=False, seed=0, n_jobs=1, overwrite=False):
+    """Run a measured benchmark into the run folder ``out`` and write its report.
+
+    The same pipeline as ``skhybrid run NAME --data DATA --out OUT``: the folder
+    is checked and locked before any fit, finished models are kept as they land,
+    and an unfinished run of the same settings in ``out`` is carried on.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`MEASURED_SYSTEMS`.
+    data : str or pathlib.Path
+        Folder holding the benchmark files (for example ``../shared/data``).
+    out : str or pathlib.Path
+        The run folder: ``results.csv``, ``results.json``, ``report.html``,
+        ``<name>.png`` and ``models/``.
+    quick : bool, default=False
+        Shorter fits (and a shorter Silverbox estimation record).
+    seed : int, default=0
+        Seed of the networks.
+    n_jobs : int, default=1
+        Models fitted in parallel with joblib.
+    overwrite : bool, default=False
+        Replace a previous run in ``out``.
+
+    Returns
+    -------
+    results : dict
+        The system's entry of ``results.json``.
+    """
+    from skhybrid.experiments._report import write_report
+    from skhybrid.experiments._runner import run_experiment
+    from skhybrid.experiments._store import RunFolder
+
+    if name not in MEASURED_SYSTEMS:
+        raise ValueError(
+            f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
+        )
+    import shlex
+
+    import skhybrid
+
+    system = MEASURED_SYSTEMS[name]
+    settings = system.default_settings(quick, seed)
+    # The identity and command of `skhybrid run`, so that either carries on a
+    # run the other left unfinished.
+    identity = {
+        "skhybrid": skhybrid.__version__,
+        "systems": [name],
+        "quick": settings.quick,
+        "seed": settings.seed,
+        "settings": settings.to_dict(),
+    }
+    words = ["run", name, "--data", str(data), "--out", str(out)]
+    words += ["--quick"] * settings.quick + ["--seed", str(settings.seed)]
+    folder = RunFolder(out).prepare()
+    try:
+        folder.start(identity, "skhybrid " + shlex.join(words), overwrite=overwrite)
+        result = run_experiment(
+            system, settings=settings, n_jobs=n_jobs, folder=folder, data=data
+        )
+        write_report([result], folder.path)
+        folder.complete()
+    finally:
+        folder.lock.release()
+    return result.summary()

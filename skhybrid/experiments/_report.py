@@ -247,7 +247,7 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
 
     Parameters
     ----------
-    results : list of ExperimentResult
+    results : list of ExperimentResult or MeasuredResult
         One per system.
     out_dir : str or Path
         Folder to write to (created if missing).
@@ -266,14 +266,28 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = [row for r in results for row in r.rows]
+    # The columns of every row, in order of appearance (a measured benchmark's
+    # rows have a unit and a validation RMSE, a paper system's the oracle ratio).
+    fieldnames = list(dict.fromkeys(key for row in rows for key in row))
     csv_path = out_dir / "results.csv"
     with csv_path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer = csv.DictWriter(f, fieldnames=fieldnames)
         writer.writeheader()
         writer.writerows(rows)
 
     figures, sections, systems = [], [], {}
     for result in results:
+        if getattr(result.system, "measured", False):
+            from skhybrid.experiments._measured import (
+                measured_figure,
+                measured_section,
+            )
+
+            path = measured_figure(result, out_dir)
+            figures.append(path)
+            sections.append(measured_section(result, path))
+            systems[result.system.name] = result.summary()
+            continue
         figs = _figures(result, out_dir)
         claims = check_claims(result)
         figures.extend(path for _, path in figs)
@@ -302,6 +316,13 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
         json.dumps({"environment": environment, "systems": systems}, indent=1)
     )
 
+    measured = [getattr(r.system, "measured", False) for r in results]
+    if all(measured):
+        title = "measured benchmarks"
+    elif any(measured):
+        title = "the paper's section 6 and measured benchmarks"
+    else:
+        title = "the paper's section 6"
     settings = results[0].settings.to_dict()
     settings_html = _table(
         [{"setting": k, "value": v} for k, v in settings.items()],
@@ -315,9 +336,9 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
     )
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>skhybrid: hybrid models on the paper's systems</title>
+<title>skhybrid: {html.escape(title)}</title>
 <style>{CSS}</style></head><body>
-<h1>Hybrid physics / neural / stochastic models: the paper's section 6</h1>
+<h1>Hybrid physics / neural / stochastic models: {html.escape(title)}</h1>
 <p>skhybrid {html.escape(skhybrid.__version__)}, Python
 {html.escape(platform.python_version())}.</p>{cmd}{total}
 <h3>Settings</h3>{settings_html}

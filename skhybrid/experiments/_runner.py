@@ -76,6 +76,23 @@ class ExperimentResult:
     def target_names(self):
         return list(self.splits["train"].target_names)
 
+    def model_rows(self, split, model):
+        """The scores of one model on one test split, one row per output.
+
+        Parameters
+        ----------
+        split : str
+            A test split's name.
+        model : str
+            A model's name.
+
+        Returns
+        -------
+        rows : list of dict
+            The rows of ``results.csv``.
+        """
+        return _model_rows(self, split, model)
+
     def windowed_db(self, split):
         """RMSE in dB of every model over short windows of one test split.
 
@@ -213,7 +230,7 @@ def _score(result):
     """Fill ``result.rows`` from the predictions."""
     for split in result.test_splits:
         for model in result.predictions[split]:
-            result.rows.extend(_model_rows(result, split, model))
+            result.rows.extend(result.model_rows(split, model))
 
 
 def _hull_shares(splits, n_steps):
@@ -256,6 +273,70 @@ def _local_threads(backend, n_threads):
         yield
 
 
+def get_system(system):
+    """The system named ``system`` (a paper system or a measured benchmark).
+
+    Parameters
+    ----------
+    system : str or System or MeasuredSystem
+        A name from ``skhybrid list`` (or a measured benchmark's), or the system.
+
+    Returns
+    -------
+    system : System or MeasuredSystem
+        The system.
+    """
+    if not isinstance(system, str):
+        return system
+    from skhybrid.experiments._measured import MEASURED_SYSTEMS
+
+    known = {**SYSTEMS, **MEASURED_SYSTEMS}
+    if system not in known:
+        raise ValueError(
+            f"system must be one of {sorted(known)}; got system={system!r}."
+        )
+    return known[system]
+
+
+def _is_measured(system):
+    return getattr(system, "measured", False)
+
+
+def _stages(zoo, todo):
+    """``todo`` in stages: a model runs after the models it requires."""
+    stages, placed = [], set()
+    while len(placed) < len(todo):
+        stage = [
+            name
+            for name in todo
+            if name not in placed
+            and all(
+                dep in placed or dep not in todo
+                for dep in getattr(zoo[name], "requires", ())
+            )
+        ]
+        if not stage:
+            raise ValueError(f"the zoo's requirements form a cycle among {todo}")
+        stages.append(stage)
+        placed.update(stage)
+    return stages
+
+
+def _dependency(result, folder, system, name, record=None, out=None):
+    """What a model that requires ``name`` reads of it: its fits and record."""
+    if out is not None:
+        return {
+            "model": out["estimator"],
+            "validation_fit": out.get("extras", {}).get("validation_fit"),
+            "fit": result.fits[name],
+        }
+    return {
+        "model": folder.load_estimator(system.name, record),
+        "validation_fit": folder.load_estimator(system.name, record, "validation_fit"),
+        "fit": record["fit"],
+    }
+
+
 def run_experiment(
     system,
     *,
@@ -265,20 +346,27 @@ def run_experiment(
     n_jobs=1,
     progress=False,
     folder=None,
+    data=None,
 ):
-    """Fit the model zoo of the paper's section 6 on one system and score it.
+    """Fit a system's model zoo and score it: a paper system or a measured one.
 
     Models are fitted with joblib, on the active backend: local processes by
     default, or a Dask cluster inside ``joblib.parallel_config(backend="dask")``.
+    A paper system (section 6) is simulated and its zoo scored on interpolative
+    and extrapolative test sets; a measured benchmark's records are loaded from
+    ``data`` and its zoo (candidates chosen on the estimation record's validation
+    tail) is scored on the official test records by free-run simulation. Models
+    that need another's fit (the measured physics' corrections) run after it.
 
     Parameters
     ----------
-    system : str or System
-        ``"pendulum"``, ``"double-pendulum"`` or ``"dc-motor"`` (see
-        ``skhybrid list``).
-    settings : ExperimentSettings or None, default=None
-        Sizes and budgets; ``None`` takes :meth:`ExperimentSettings.quick` or
-        :meth:`ExperimentSettings.full` with ``seed``.
+    system : str, System or MeasuredSystem
+        ``"pendulum"``, ``"double-pendulum"``, ``"dc-motor"`` (see
+        ``skhybrid list``), or a measured benchmark: ``"cascaded-tanks"``,
+        ``"emps"``, ``"silverbox"``.
+    settings : ExperimentSettings, MeasuredSettings or None, default=None
+        Sizes and budgets; ``None`` takes the system's default for ``quick``
+        and ``seed``.
     quick : bool, default=False
         Small data and few epochs (used only when ``settings`` is None).
     seed : int, default=0
@@ -287,36 +375,42 @@ def run_experiment(
         Models fitted in parallel with joblib (-1: all cores, or every worker of a
         Dask cluster).
     progress : bool, default=False
-        Show progress bars on standard error: models fitted, and epochs of all
-        networks (counted across joblib workers, or Dask workers).
+        Show progress bars on standard error: models fitted (of the zoo's total),
+        and epochs of all networks (counted across joblib workers, or Dask
+        workers).
     folder : RunFolder or None, default=None
         Where each model's fitted estimator, predictions and scores are written as
         soon as it finishes; models already finished there are loaded, not fitted
         again.
+    data : str, Path or None, default=None
+        Folder holding a measured benchmark's files; needed by those only.
 
     Returns
     -------
-    result : ExperimentResult
+    result : ExperimentResult or MeasuredResult
         The fitted models' predictions, scores, parameters and fit records.
     """
     start = time.perf_counter()
-    if isinstance(system, str):
-        if system not in SYSTEMS:
-            raise ValueError(
-                f"system must be one of {sorted(SYSTEMS)}; got system={system!r}."
-            )
-        system = SYSTEMS[system]
+    system = get_system(system)
+    measured = _is_measured(system)
     if settings is None:
-        settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(
-            seed
-        )
-    splits = system.make_splits(settings)
-    result = ExperimentResult(system, settings, splits)
-    for split in result.test_splits:
-        result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
-    result.hull = _hull_shares(splits, settings.n_steps)
+        if measured:
+            settings = system.default_settings(quick, seed)
+        else:
+            settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(
+                seed
+            )
+    if measured:
+        result = system.new_result(settings, data)
+        zoo = system.model_zoo(settings)
+    else:
+        splits = system.make_splits(settings)
+        result = ExperimentResult(system, settings, splits)
+        for split in result.test_splits:
+            result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
+        result.hull = _hull_shares(splits, settings.n_steps)
+        zoo = model_zoo(system, settings)
 
-    zoo = model_zoo(system, settings)
     done = {} if folder is None else folder.finished(system.name)
     done = {name: record for name, record in done.items() if name in zoo}
     for name, record in done.items():
@@ -326,42 +420,72 @@ def run_experiment(
         for split, pred in folder.load_predictions(system.name, record).items():
             result.predictions[split][name] = pred
 
-    train = splits["train"]
-    tests = [(split, splits[split].X) for split in result.test_splits]
-    # The slowest fits (recurrent hybrids) first, so parallel workers finish together.
-    order = sorted(zoo, key=lambda name: ("rnn" not in name, "ensemble" not in name))
+    # The slowest fits (recurrent and state-space hybrids) first, so parallel
+    # workers finish together.
+    order = sorted(
+        zoo,
+        key=lambda name: (
+            "rnn" not in name,
+            "ensemble" not in name,
+            "hybrid" not in name,
+        ),
+    )
     todo = [name for name in order if name not in done]
+    stages = _stages(zoo, todo)
+    # The fits that models still to run require, as each finished or was stored.
+    needed = {dep for name in todo for dep in getattr(zoo[name], "requires", ())}
+    deps = {
+        name: _dependency(result, folder, system, name, record=done[name])
+        for name in needed
+        if name in done
+    }
     backend, _ = get_active_backend()
     client = _dask_client(backend)
     cores = os.cpu_count() or 1
+    widest = max((len(stage) for stage in stages), default=1)
     if n_jobs in (-1, None):
         workers = -1 if client is not None else cores
     else:
-        workers = max(1, min(n_jobs, len(todo) or 1))
+        workers = max(1, min(n_jobs, widest))
     n_threads = max(1, cores // max(workers, 1))
     bars = None
     if progress:
         bars = ProgressBars(len(zoo), system.name, client=client, n_done=len(done))
-        for name in todo:
-            attach_epoch_logger(zoo[name], bars.sink, name)
+        if not measured:  # a measured model's networks are built in its job
+            for name in todo:
+                attach_epoch_logger(zoo[name], bars.sink, name)
+    sink = None if bars is None else bars.sink
+
+    def jobs(stage):
+        for name in stage:
+            if measured:
+                needs = {k: deps[k] for k in getattr(zoo[name], "requires", ())}
+                yield system.job(name, zoo[name], result, needs, sink)
+            else:
+                train = result.splits["train"]
+                tests = [
+                    (split, result.splits[split].X) for split in result.test_splits
+                ]
+                yield delayed(_fit_one)(name, zoo[name], train.X, train.y, tests)
+
     try:
-        if todo:
-            jobs = (
-                delayed(_fit_one)(name, zoo[name], train.X, train.y, tests)
-                for name in todo
-            )
+        for stage in stages:
             with _local_threads(backend, n_threads):
                 outputs = Parallel(n_jobs=workers, return_as="generator_unordered")(
-                    jobs
+                    jobs(stage)
                 )
                 for name, out in outputs:
                     _record(result, name, out, folder)
+                    if name in needed:
+                        deps[name] = _dependency(result, folder, system, name, out=out)
                     if bars is not None:
                         bars.model_done(name, out["fit_time"], out["n_epochs"])
     finally:
         if bars is not None:
             bars.close()
     # Keep the zoo's order (and the oracle first) whatever order fits finished in.
+    result.fits = {k: result.fits[k] for k in zoo if k in result.fits}
+    result.params = {k: result.params[k] for k in zoo if k in result.params}
     for split in result.test_splits:
         preds = result.predictions[split]
         result.predictions[split] = {
@@ -379,6 +503,10 @@ def _record(result, name, out, folder):
         "n_epochs": out["n_epochs"],
         "warnings": out["warnings"],
     }
+    # A measured model's choice on the validation tail.
+    for key in ("validation_rmse", "selection"):
+        if key in out:
+            fit[key] = out[key]
     predictions = {
         split: np.asarray(pred, dtype=float)
         for split, pred in out["predictions"].items()
@@ -390,7 +518,7 @@ def _record(result, name, out, folder):
         result.predictions[split][name] = pred
     if folder is not None:
         scores = [
-            row for split in predictions for row in _model_rows(result, split, name)
+            row for split in predictions for row in result.model_rows(split, name)
         ]
         folder.save_model(
             result.system.name,
@@ -398,4 +526,5 @@ def _record(result, name, out, folder):
             out["estimator"],
             predictions,
             {"fit": fit, "params": out["params"], "scores": scores},
+            extras=out.get("extras"),
         )

@@ -6,6 +6,8 @@ A run writes into one folder (``skhybrid run --out DIR``)::
       .lock                      held while a run writes here (its pid inside)
       run.json                   the run: systems, seed, settings, command, status
       models/SYSTEM/MODEL.joblib the fitted model
+      models/SYSTEM/MODEL.*.joblib other fits kept with it (a measured physics'
+                                 fit on the validation part)
       models/SYSTEM/MODEL.npz    its predictions on every test split
       models/SYSTEM/MODEL.json   its fit record and scores; written last, so a model
                                  is finished exactly when this file exists
@@ -329,7 +331,37 @@ class RunFolder:
         with np.load(self._model_dir(system) / record["predictions"]) as data:
             return {split: data[split] for split in data.files}
 
-    def save_model(self, system, name, estimator, predictions, record):
+    def load_estimator(self, system, record, extra=None):
+        """A finished model's fitted estimator (or one of its extras), or None.
+
+        Parameters
+        ----------
+        system : str
+            The system's name.
+        record : dict
+            The model's record (from :meth:`finished`).
+        extra : str or None, default=None
+            The name of an extra estimator stored with it (``save_model``'s
+            ``extras``); None loads the model itself.
+
+        Returns
+        -------
+        estimator : object or None
+            None where none was stored.
+        """
+        import joblib
+
+        name = (
+            record.get("estimator")
+            if extra is None
+            else (record.get("extras") or {}).get(extra)
+        )
+        if name is None:
+            return None
+        with open(self._model_dir(system) / name, "rb") as f:
+            return joblib.load(f)
+
+    def save_model(self, system, name, estimator, predictions, record, extras=None):
         """Write one finished model: fitted estimator, predictions, then record.
 
         Parameters
@@ -343,8 +375,11 @@ class RunFolder:
         predictions : dict of str to ndarray
             Predictions on each test split.
         record : dict
-            Fit record and scores (JSON-serialisable); ``model``, ``predictions``
-            and ``estimator`` keys are added.
+            Fit record and scores (JSON-serialisable); ``model``, ``predictions``,
+            ``estimator`` and ``extras`` keys are added.
+        extras : dict of str to estimator or None, default=None
+            Other fitted estimators kept with the model (a measured physics'
+            fit on the validation part, which later models start from).
         """
         import joblib
 
@@ -360,6 +395,17 @@ class RunFolder:
 
             _write_atomic(folder / f"{stem}.joblib", dump)
             record["estimator"] = f"{stem}.joblib"
+        for key, extra in (extras or {}).items():
+            if extra is None:
+                continue
+            file = f"{stem}.{_slug(key)}.joblib"
+
+            def dump_extra(p, extra=extra):
+                with open(p, "wb") as f:
+                    joblib.dump(extra, f)
+
+            _write_atomic(folder / file, dump_extra)
+            record.setdefault("extras", {})[key] = file
 
         def save(p):
             with open(p, "wb") as f:

@@ -23,6 +23,8 @@ class System:
     :meth:`make_splits` and :meth:`physics`.
     """
 
+    #: Simulated splits; a measured benchmark (``MeasuredSystem``) sets True.
+    measured = False
     name = ""
     title = ""
     section = ""

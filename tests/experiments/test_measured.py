@@ -8,7 +8,8 @@ from numpy.testing import assert_allclose
 
 from skhybrid.cli import main
 from skhybrid.exceptions import SimulationDivergedError
-from skhybrid.experiments._greybox import (
+from skhybrid.experiments._measured import MEASURED_SYSTEMS, PUBLISHED, run_measured
+from skhybrid.experiments._measured_physics import (
     emps_physics,
     fit_segments,
     silverbox_physics,
@@ -17,8 +18,8 @@ from skhybrid.experiments._greybox import (
     tanks_physics,
     with_next_input,
 )
-from skhybrid.experiments._measured import MEASURED_SYSTEMS, PUBLISHED, run_measured
-from skhybrid.experiments._measured_zoo import _records, _rmse, _windows
+from skhybrid.experiments._measured_zoo import _records, _rmse
+from skhybrid.hybrid._correction import _windows
 
 TRUTH = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
 
@@ -184,54 +185,15 @@ def test_unknown_system_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_cascaded_tanks_quick_run(shared_data_dir, tmp_path):
-    """The whole pipeline on real data, by the official protocol."""
-    out = tmp_path / "tanks"
-    code = main(
-        [
-            "run",
-            "cascaded-tanks",
-            "--quick",
-            "--data",
-            str(shared_data_dir),
-            "--out",
-            str(out),
-            "--no-progress",
-        ]
-    )
-    assert code == 0
-    results = json.loads((out / "results.json").read_text())
-    assert results["n_init"] == 50 and results["unit"] == "V"
-    rmse = results["test_rmse"]["test"]
-    # The grey-box physics simulates better than the published linear model.
-    assert rmse["physics"] < 0.588
-    assert set(rmse) >= {"physics", "linear ARX", "dense NARX", "physics + dense"}
-    assert (out / "report.html").read_text().count("Champneys") >= 2
-    assert (out / "cascaded-tanks.png").stat().st_size > 10_000
-    # A second run into the same folder is refused without --overwrite.
-    again = [
-        "run",
-        "cascaded-tanks",
-        "--quick",
-        "--data",
-        str(shared_data_dir),
-        "--out",
-        str(out),
-    ]
-    assert main(again) == 2
-
-
-@pytest.mark.slow
 def test_silverbox_quick_run(shared_data_dir, tmp_path):
     """The Duffing physics beats the published linear model; hybrids are chosen
     on the validation tail only."""
     out = tmp_path / "silverbox"
-    results = run_measured(
-        "silverbox", shared_data_dir, out, quick=True, log=lambda line: None
-    )
+    results = run_measured("silverbox", shared_data_dir, out, quick=True)
     rmse = results["test_rmse"]
     assert rmse["test_multisine"]["physics"] < 6.96
     assert "state-space hybrid" in results["selection"]
     validation = results["validation_rmse"]
     assert results["selected_model"] == min(validation, key=validation.get)
     assert results["selection"]["physics"]["segment"] == 512
+    assert json.loads((out / "results.json").read_text())["systems"]["silverbox"]

@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 
 import pytest
-from skorch.callbacks import Callback
 
 from skhybrid import experiments
 from skhybrid.cli import main
@@ -27,18 +26,7 @@ from skhybrid.neural import DenseRegressor
 TINY = ["physics (refit)", "linear", "dense", "physics+dense"]
 
 
-class CtrlCAtEpoch(Callback):
-    """Send this process a SIGINT (a Ctrl-C) at the end of epoch ``epoch``."""
-
-    def __init__(self, epoch):
-        self.epoch = epoch
-
-    def on_epoch_end(self, net, **kwargs):
-        if len(net.history) == self.epoch:
-            signal.raise_signal(signal.SIGINT)
-
-
-def _tiny_zoo(interrupt_dense=False):
+def _tiny_zoo(interrupt_dense=False, ctrl_c=None):
     real = experiments.model_zoo
 
     def zoo(system, settings):
@@ -47,7 +35,7 @@ def _tiny_zoo(interrupt_dense=False):
             (8,),
             max_epochs=6,
             random_state=settings.seed,
-            callbacks=[CtrlCAtEpoch(2)] if interrupt_dense else None,
+            callbacks=[ctrl_c(2)] if interrupt_dense else None,
         )
         out = {name: full[name] for name in ("physics (refit)", "linear")}
         out["dense"] = dense
@@ -64,11 +52,11 @@ def _tiny_zoo(interrupt_dense=False):
 
 
 @pytest.fixture
-def tiny_zoo(monkeypatch):
+def tiny_zoo(monkeypatch, ctrl_c_at_epoch):
     """Replace the zoo with four quick models; ``tiny_zoo(True)`` interrupts."""
 
     def use(interrupt_dense=False):
-        zoo = _tiny_zoo(interrupt_dense)
+        zoo = _tiny_zoo(interrupt_dense, ctrl_c_at_epoch)
         monkeypatch.setattr(experiments, "model_zoo", zoo)
         monkeypatch.setattr(_runner, "model_zoo", zoo)
 

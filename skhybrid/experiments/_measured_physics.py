@@ -1,4 +1,4 @@
-"""Grey-box physics of the measured benchmarks as :class:`StateSpaceModel` s.
+"""The measured benchmarks' physics: grey-box :class:`StateSpaceModel` s and their fit.
 
 Each benchmark's physics is a :class:`~skhybrid.domain.StateSpaceModel` whose
 unmeasured states are latent: the upper tank's level, the EMPS velocity, the
@@ -28,7 +28,6 @@ import numpy as np
 from skhybrid.domain import StateSpaceModel
 
 __all__ = [
-    "TransformedInputs",
     "duffing_foh",
     "emps_axis",
     "emps_physics",
@@ -303,34 +302,3 @@ def fit_segments(model, u, y, segment):
     U = [u[a:b] for a, b in itertools.pairwise(bounds)]
     Y = [y[a:b] for a, b in itertools.pairwise(bounds)]
     return model.fit_simulation(U, Y)
-
-
-class TransformedInputs:
-    """A fitted model fed transformed inputs (the Silverbox's ``[u(t), u(t+1)]``).
-
-    Parameters
-    ----------
-    model : object
-        Anything with ``simulate(inputs, initial)``.
-    transform : callable or None
-        Maps a record's inputs to the model's; ``None`` passes them through.
-    """
-
-    def __init__(self, model, transform=None):
-        self.model = model
-        self.transform = transform
-
-    def inputs(self, u):
-        """The model's inputs for the record inputs ``u``."""
-        if self.transform is None:
-            return np.asarray(u, dtype=float)
-        return self.transform(u)
-
-    def simulate(self, inputs, initial):
-        """Free run of the model from the measured window ``initial``."""
-        return self.model.simulate(self.inputs(inputs), initial)
-
-    def __getattr__(self, name):
-        if name in ("model", "transform"):
-            raise AttributeError(name)
-        return getattr(self.model, name)

@@ -1,0 +1,27 @@
+"""Fixtures shared by the experiments' tests."""
+
+import signal
+
+import pytest
+from skorch.callbacks import Callback
+
+
+class CtrlCAtEpoch(Callback):
+    """Send this process a SIGINT (a Ctrl-C) at the end of epoch ``epoch``."""
+
+    def __init__(self, epoch):
+        self.epoch = epoch
+
+    def on_epoch_end(self, net, **kwargs):
+        if len(net.history) == self.epoch:
+            signal.raise_signal(signal.SIGINT)
+
+
+@pytest.fixture
+def ctrl_c_at_epoch():
+    """The skorch callback that presses Ctrl-C during a network's training.
+
+    skorch catches the KeyboardInterrupt inside ``fit`` and returns the network
+    as if trained: a run must still stop and not record that model.
+    """
+    return CtrlCAtEpoch

@@ -1,0 +1,182 @@
+"""The measured zoo's static corrections (skhybrid.hybrid._correction) and its one
+choose-refit-score rule (skhybrid.experiments._measured_zoo.choose_and_refit)."""
+
+import inspect
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from sklearn.base import clone
+from sklearn.linear_model import Ridge
+
+from skhybrid.experiments._measured import EMPS
+from skhybrid.experiments._measured_physics import emps_physics, with_next_input
+from skhybrid.experiments._measured_zoo import (
+    MeasuredContext,
+    ZooModel,
+    _tail_split,
+    choose_and_refit,
+)
+from skhybrid.hybrid._correction import (
+    _NARXSimulator,
+    _PhysicsCorrection,
+    _TransformedInputs,
+)
+
+CONTRACT = (
+    "(inputs, initial, *, init='measured', n_samples=None, random_state=None, "
+    "return_std=False)"
+)
+
+
+def _record(n=600, seed=0):
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((n, 1))
+    y = np.zeros((n, 1))
+    for t in range(1, n):
+        y[t] = 0.8 * y[t - 1] + 0.3 * u[t - 1] + 0.05 * np.tanh(3 * y[t - 1])
+    return u, y
+
+
+def _physics(u, y):
+    model = emps_physics(1e-3, max_nfev=3)
+    return model.fit_simulation(u, y)
+
+
+def _fitted():
+    u, y = _record()
+    physics = _TransformedInputs(_physics(*_axis()))
+    return {
+        "narx": _NARXSimulator(Ridge(alpha=1e-6), 2).fit(u, y),
+        "correction": _PhysicsCorrection(physics, Ridge(alpha=1e-3), 3, n_init=20).fit(
+            *_axis()
+        ),
+        "transformed": physics,
+    }
+
+
+def _axis(n=400):
+    t = np.arange(n) * 1e-3
+    u = np.sin(2 * np.pi * 3 * t)[:, None]
+    model = emps_physics(1e-3)
+    model.set_params(fixed=tuple(model.params))
+    y = model.fit_simulation(u, np.zeros((n, 1))).simulate_from_state(u, [0, 0])
+    return u, y
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    return _fitted()
+
+
+def test_simulate_has_the_librarys_signature(fitted):
+    for model in fitted.values():
+        assert str(inspect.signature(model.simulate)) == CONTRACT
+
+
+@pytest.mark.parametrize("name", ["narx", "correction", "transformed"])
+def test_no_noise_model_means_clear_errors(fitted, name):
+    model = fitted[name]
+    u, y = _axis() if name != "narx" else _record()
+    with pytest.raises(ValueError, match=r"need a noise model; .* has none"):
+        model.simulate(u, y[:20], return_std=True)
+    with pytest.raises(ValueError, match="need a noise model"):
+        model.simulate(u, y[:20], n_samples=3)
+    with pytest.raises(ValueError, match="init must be one of"):
+        model.simulate(u, y[:20], init="zeros")
+
+
+def test_least_squares_init_is_refused_where_unsupported(fitted):
+    u, y = _axis()
+    for name in ("correction", "transformed"):
+        with pytest.raises(ValueError, match="supports init in \\('measured',\\)"):
+            fitted[name].simulate(u, y[:20], init="least_squares")
+    # The NARX passes it to skhybrid.simulation.simulate.
+    u, y = _record()
+    sim = fitted["narx"].simulate(u, y[:10], init="least_squares")
+    assert sim.shape == y.shape
+
+
+def test_estimator_conventions(fitted):
+    narx = _NARXSimulator(Ridge(), 3)
+    assert narx.get_params()["n_steps"] == 3
+    assert not hasattr(narx, "model_")  # __init__ stores parameters only
+    copy = clone(fitted["correction"])
+    assert copy.n_steps == 3 and not hasattr(copy, "model_")
+    assert copy.physics is fitted["correction"].physics  # the physics is kept as is
+    with pytest.raises(ValueError, match="n_steps must be an int >= 1"):
+        _NARXSimulator(Ridge(), 0).fit(*_record())
+    with pytest.raises(ValueError, match="outputs must hold one output"):
+        _PhysicsCorrection(fitted["transformed"], Ridge()).fit(
+            np.zeros((50, 1)), np.zeros((50, 2))
+        )
+
+
+def test_correction_adds_its_static_map_to_the_physics_free_run(fitted):
+    corr = fitted["correction"]
+    u, y = _axis()
+    y_phys = np.ravel(corr.physics.simulate(u, y[:20]))
+    sim = corr.simulate(u, y[:20])
+    assert sim.shape == (len(u), 1)
+    assert_allclose(sim[:, 0], corr.correct(u, y_phys))
+
+
+def test_transformed_inputs_feed_the_transform_and_read_through():
+    u, y = _axis()
+    physics = _physics(u, y)
+    wrapped = _TransformedInputs(physics, lambda v: 2.0 * np.asarray(v))
+    assert wrapped.params_ is physics.params_  # fitted attributes read through
+    assert_allclose(wrapped.simulate(u, y[:20]), physics.simulate(2.0 * u, y[:20]))
+    assert_allclose(with_next_input(u)[:-1, 1], u[1:, 0])
+    assert wrapped.fit() is wrapped
+
+
+# -- choose, refit, score -------------------------------------------------------------
+
+
+class _Constant:
+    """A 'model' whose free run is a constant: its candidate."""
+
+    def __init__(self, level, fitted_on):
+        self.level = level
+        self.fitted_on = fitted_on
+
+    def simulate(self, inputs, initial):
+        return np.full((len(inputs), 1), float(self.level))
+
+
+def _constant_fit(calls):
+    def fit(candidate, u, y, ctx, deps, start):
+        calls.append((candidate, len(u), start))
+        if candidate == "bad":
+            raise FloatingPointError("diverged")
+        return _Constant(candidate, len(u))
+
+    return fit
+
+
+@pytest.mark.parametrize("refit", [True, False])
+def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
+    u = np.zeros((400, 1))
+    y = np.full((400, 1), 2.0)
+    ctx = MeasuredContext(EMPS(), u, y, 10, 1e-3, True, 0)
+    calls = []
+    model = ZooModel(
+        _constant_fit(calls),
+        lambda ctx, records: {0.0: 0.0, 1.9: 1.9, 3.0: 3.0, "bad": "bad"},
+        refit=refit,
+        fit_errors=(FloatingPointError,),
+        choice="level",
+    )
+    chosen, on_part, selection = choose_and_refit(model, ctx, {})
+    (u_a, _), _ = _tail_split(u, y)
+    assert on_part.level == 1.9 and on_part.fitted_on == len(u_a)
+    assert selection["level"] == 1.9
+    assert selection["validation_rmse_by_candidate"]["bad"] == float("inf")
+    assert_allclose(selection["validation_rmse"], EMPS.scale * 0.1)
+    if refit:
+        assert chosen.fitted_on == len(u) and calls[-1] == (1.9, len(u), on_part)
+        assert selection["fitted_on"] == "the whole estimation record"
+    else:
+        assert chosen is on_part and len(calls) == 4
+        assert selection["fitted_on"] == "the first 75 % of the estimation record"

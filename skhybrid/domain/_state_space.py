@@ -196,7 +196,7 @@ default=None
     noise_model_ : object or None
         The noise model fitted to the simulation residuals (``fit_simulation``
         with ``noise_model``), else None.
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (`n_features_in_`,)
         Names of the columns of ``X`` when ``fit`` got a DataFrame with string
         column names.
 

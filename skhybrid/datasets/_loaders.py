@@ -106,7 +106,8 @@ class _MatFile:
                 f"must have as many samples as the input {u_name!r}; got "
                 f"{y.shape[0]} samples and {u_name} has {u.shape[0]}",
             )
-        _check_record_length(u.shape[0], n_init, f"{self.loader}: {self.file}: {y_name}")
+        what = f"{self.loader}: {self.file}: variable {y_name!r}"
+        _check_record_length(u.shape[0], n_init, what)
         return u, y
 
 
@@ -193,10 +194,10 @@ def load_silverbox(path):
     FileNotFoundError
         When the file is in neither ``path`` nor its subfolder.
     ValueError
-        When a file is not a readable ``.mat`` file, a variable is missing, not
-        a vector or not finite, inputs and outputs differ in length, a record is
-        shorter than ``n_init + 1`` or than the official splits need; the message names the file, the
-        variable and the value received.
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or than the official splits need; the message
+        names the file, the variable and the value received.
 
     See Also
     --------
@@ -299,10 +300,10 @@ def load_cascaded_tanks(path):
     FileNotFoundError
         When the file is in neither ``path`` nor its subfolder.
     ValueError
-        When a file is not a readable ``.mat`` file, a variable is missing, not
-        a vector or not finite, inputs and outputs differ in length, a record is
-        shorter than ``n_init + 1`` or the sample period ``Ts`` is not positive; the message names the file, the
-        variable and the value received.
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or the sample period ``Ts`` is not positive; the
+        message names the file, the variable and the value received.
 
     See Also
     --------
@@ -391,10 +392,10 @@ def load_emps(path):
     FileNotFoundError
         When the file is in neither ``path`` nor its subfolder.
     ValueError
-        When a file is not a readable ``.mat`` file, a variable is missing, not
-        a vector or not finite, inputs and outputs differ in length, a record is
-        shorter than ``n_init + 1`` or the time stamps ``t`` do not increase (a sample period
-        that is not positive); the message names the file, the
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or the time stamps ``t`` do not increase (a
+        sample period that is not positive); the message names the file, the
         variable and the value received.
 
     See Also
@@ -432,7 +433,8 @@ def load_emps(path):
             mat._fail(
                 "t",
                 f"must increase at every sample (the sample period is "
-                f"t[k + 1] - t[k] > 0); got t[{k + 1}] - t[{k}] = {float(steps[k]):.6g} s",
+                f"t[k + 1] - t[k] > 0); got t[{k + 1}] - t[{k}] = "
+                f"{float(steps[k]):.6g} s",
             )
         splits[name] = split
     controller = {

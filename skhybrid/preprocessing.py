@@ -14,7 +14,14 @@ from numbers import Integral, Real
 
 import numpy as np
 
-__all__ = ["WindowLayout", "make_windows", "newest_step", "split_steps", "step_width"]
+__all__ = [
+    "WindowLayout",
+    "infer_n_steps",
+    "make_windows",
+    "newest_step",
+    "split_steps",
+    "step_width",
+]
 
 
 def _check_n_steps(n_steps):
@@ -653,3 +660,67 @@ class WindowLayout:
                 f"the layout expects {self.n_states} and {self.n_inputs}."
             )
         return out
+
+
+#: Rows read by :func:`infer_n_steps`: continuity is local, so the start of a
+#: long record tells as much as all of it, at a bounded cost.
+_INFER_MAX_ROWS = 2000
+
+
+def infer_n_steps(X, y):
+    """The window length under which the rows of ``X`` continue each other.
+
+    Rows cut from sequences in time order by :func:`make_windows` continue each
+    other (:meth:`WindowLayout.continues`: row ``i + 1`` is row ``i`` shifted one
+    step, with the target ``y[i]`` as its newest state) under their true
+    ``n_steps`` only. Every ``n_steps`` that divides the row into steps at least
+    ``n_outputs`` wide is tried on the first 2000 rows; one is returned when most
+    rows continue under it and fewer than half as many under any other.
+
+    Estimators use it at ``fit`` to tell a user which ``n_steps`` to set when the
+    rows say another than the one given.
+
+    Parameters
+    ----------
+    X : array-like of shape (n_samples, n_features)
+        Rows, in time order for the answer to be found.
+    y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+        Their targets, the state after each row.
+
+    Returns
+    -------
+    n_steps : int or None
+        The window length the rows follow; None when they do not tell (shuffled
+        rows, too few rows, or rows that continue under several lengths, as a
+        state that does not change does).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.preprocessing import infer_n_steps, make_windows
+    >>> rng = np.random.default_rng(0)
+    >>> X, y = make_windows(rng.normal(size=50), rng.normal(size=50), n_steps=3)
+    >>> infer_n_steps(X, y)
+    3
+    >>> print(infer_n_steps(X[::-1], y[::-1]))  # not in time order
+    None
+    """
+    X = np.asarray(X)[: _INFER_MAX_ROWS + 1]
+    y = np.asarray(y)[: _INFER_MAX_ROWS + 1]
+    if X.ndim != 2 or len(X) < 3 or len(y) != len(X):
+        return None
+    Y = y.reshape(len(X), -1)
+    n_features, n_outputs = X.shape[1], Y.shape[1]
+    counts = {}
+    for n_steps in range(1, n_features + 1):
+        if n_features % n_steps or n_features // n_steps < n_outputs:
+            continue
+        layout = WindowLayout.from_shapes(n_features, n_outputs, n_steps=n_steps)
+        counts[n_steps] = int(np.sum(layout.continues(X, Y)))
+    if not counts:
+        return None
+    best = max(counts, key=counts.get)
+    others = [c for k, c in counts.items() if k != best]
+    if counts[best] > (len(X) - 1) / 2 and all(c < counts[best] / 2 for c in others):
+        return best
+    return None

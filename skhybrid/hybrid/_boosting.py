@@ -11,7 +11,12 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.exceptions import NonWhiteResidualWarning
 from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
-from skhybrid.preprocessing import WindowLayout, split_steps, step_width
+from skhybrid.preprocessing import (
+    WindowLayout,
+    infer_n_steps,
+    split_steps,
+    step_width,
+)
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -452,10 +457,15 @@ class HybridBoostingRegressor(
         The right value to change is the wrong one, so the message is led by the
         data: rows cut from sequences by :func:`~skhybrid.preprocessing.make_windows`
         continue each other (row ``i + 1`` is row ``i`` shifted one step) only
-        under their true window length. Where the rows do not tell (shuffled, or
-        both lengths fit as well), a booster left at its default ``n_steps=1``
-        under a stage set to another length is the likelier slip.
+        under their true window length
+        (:func:`~skhybrid.preprocessing.infer_n_steps`). Where the rows do not
+        tell (shuffled), a booster left at its default ``n_steps=1`` under a
+        stage set to another length is the likelier slip.
         """
+        inferred = infer_n_steps(X, Y)
+        windowed = [
+            name for name, est in self.stages if "n_steps" in est.get_params(deep=False)
+        ]
         for name, est in self.stages:
             stage_steps = est.get_params(deep=False).get("n_steps", self.n_steps)
             if stage_steps == self.n_steps:
@@ -470,17 +480,15 @@ class HybridBoostingRegressor(
                 f"(HybridBoostingRegressor(..., n_steps={stage_steps}))"
             )
             fix_stage = f"set {name}__n_steps={self.n_steps}"
-            counts = _continuing_rows(X, Y, (self.n_steps, stage_steps))
-            if _decisive(counts[stage_steps], counts[self.n_steps], X.shape[0]):
+            rows = f"The rows of X ({X.shape[1]} columns) continue each other as"
+            if inferred == stage_steps:
                 raise ValueError(
-                    f"{head} The rows of X ({X.shape[1]} columns) continue each "
-                    f"other as windows of {stage_steps} steps, not "
+                    f"{head} {rows} windows of {stage_steps} steps, not "
                     f"{self.n_steps}: {fix_booster}."
                 )
-            if _decisive(counts[self.n_steps], counts[stage_steps], X.shape[0]):
+            if inferred == self.n_steps:
                 raise ValueError(
-                    f"{head} The rows of X ({X.shape[1]} columns) continue each "
-                    f"other as windows of {self.n_steps} steps, not "
+                    f"{head} {rows} windows of {self.n_steps} steps, not "
                     f"{stage_steps}: {fix_stage}."
                 )
             first, second = (
@@ -491,6 +499,17 @@ class HybridBoostingRegressor(
             raise ValueError(
                 f"{head} Set n_steps to the window length of X's rows: {first}, or "
                 f"{second}."
+            )
+        if inferred is not None and inferred != self.n_steps:
+            # Every stage agrees with the booster, but the rows do not: a booster
+            # and stages left at n_steps=1 on windows of 2 steps fit without
+            # complaint and fail only at simulate.
+            stages = "".join(f", {name}__n_steps={inferred}" for name in windowed)
+            raise ValueError(
+                f"the booster has n_steps={self.n_steps}, but the rows of X "
+                f"({X.shape[1]} columns) continue each other as windows of "
+                f"{inferred} steps: set n_steps={inferred} on the booster"
+                + (f" and on its windowed stages ({stages[2:]})." if stages else ".")
             )
 
     def _split(self, n):
@@ -845,27 +864,6 @@ class HybridBoostingRegressor(
     def domain_params_std_(self):
         """``params_std_`` of the first fitted domain-model stage."""
         return self._domain_stage().params_std_
-
-
-def _continuing_rows(X, Y, candidates):
-    """Per window length, how many rows continue the row before (0 if none fits)."""
-    counts = {}
-    for n_steps in candidates:
-        try:
-            layout = WindowLayout.from_shapes(X.shape[1], Y.shape[1], n_steps=n_steps)
-            counts[n_steps] = int(np.sum(layout.continues(X, Y)))
-        except ValueError:  # the rows are not windows of this length at all
-            counts[n_steps] = -1
-    return counts
-
-
-def _decisive(winner, loser, n_samples):
-    """Whether most rows continue under one length and few under the other.
-
-    Shuffled rows continue each other only by chance (about one pair in a
-    random order), which must not pick a value.
-    """
-    return winner > (n_samples - 1) / 2 and loser < winner / 2
 
 
 def _visual_block(kind, estimators, **kwargs):

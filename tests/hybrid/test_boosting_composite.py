@@ -176,3 +176,18 @@ def test_n_steps_message_without_evidence_leads_with_the_default():
     assert message.index("set n_steps=2 on the booster") < message.index(
         "set physics__n_steps=1"
     )
+
+
+def test_n_steps_message_when_booster_and_stages_agree_but_the_rows_do_not():
+    """Everything left at n_steps=1 on windows of 2 steps: name every value to set."""
+    X, y = _windows(2)
+    booster = HybridBoostingRegressor(
+        [("physics", LinearStateSpaceModel()), ("ridge", Ridge())]
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"continue each other as windows of 2 steps: set n_steps=2 on the "
+        r"booster and on its windowed stages \(physics__n_steps=2\)",
+    ):
+        booster.fit(X, y)
+    booster.set_params(n_steps=2, physics__n_steps=2).fit(X, y)

@@ -182,3 +182,22 @@ def test_names_must_be_a_sequence_of_unique_names():
     ):
         WindowLayout(1, 1, state_names=["x"], input_names=["x"])
     assert WindowLayout(2, state_names=("a", "b")).state_names == ("a", "b")
+
+
+@pytest.mark.parametrize("n_steps", [1, 2, 3, 4])
+@pytest.mark.parametrize("n_inputs", [0, 1, 2])
+def test_infer_n_steps_reads_the_window_length_from_ordered_rows(n_steps, n_inputs):
+    from skhybrid.preprocessing import infer_n_steps
+
+    rng = np.random.default_rng(n_steps + 10 * n_inputs)
+    episodes = [rng.normal(size=(40, 2)), rng.normal(size=(30, 2))]
+    inputs = [rng.normal(size=(40, n_inputs)), rng.normal(size=(30, n_inputs))]
+    X, y = make_windows(episodes, inputs if n_inputs else None, n_steps=n_steps)
+    assert infer_n_steps(X, y) == n_steps
+    # Shuffled rows, too few rows and a constant state do not tell.
+    perm = rng.permutation(len(X))
+    assert infer_n_steps(X[perm], y[perm]) is None
+    assert infer_n_steps(X[:2], y[:2]) is None
+    # A state that does not change continues under every length that fits.
+    flat, flat_y = make_windows(np.zeros((20, 2)), n_steps=max(n_steps, 2))
+    assert infer_n_steps(flat, flat_y) is None

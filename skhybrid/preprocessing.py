@@ -10,11 +10,18 @@ shuffled cross-validation, joblib and scikit-learn's estimator checks all work.
 """
 
 from dataclasses import dataclass
-from numbers import Integral
+from numbers import Integral, Real
 
 import numpy as np
 
-__all__ = ["WindowLayout", "make_windows", "newest_step", "split_steps", "step_width"]
+__all__ = [
+    "WindowLayout",
+    "infer_n_steps",
+    "make_windows",
+    "newest_step",
+    "split_steps",
+    "step_width",
+]
 
 
 def _check_n_steps(n_steps):
@@ -248,9 +255,18 @@ class WindowLayout:
     n_steps : int, default=1
         Time steps per row.
     state_names : sequence of str or None, default=None
-        Names of the state columns; ``x0, x1, ...`` when None.
+        Names of the state columns; ``x0, x1, ...`` when None. A list or tuple,
+        not a single string; every state and input name must be unique.
     input_names : sequence of str or None, default=None
         Names of the input columns; ``u0, u1, ...`` when None.
+
+    Notes
+    -----
+    Arguments are checked as a scikit-learn estimator checks its data: a
+    ``next_state``, ``next_input``, ``y``, ``states`` or ``inputs`` of the wrong
+    shape, a negative or NaN ``atol``, a string or repeated names each raise a
+    ValueError that names the argument and the shape or value received, instead
+    of returning rows of the wrong width.
 
     Examples
     --------
@@ -277,15 +293,32 @@ class WindowLayout:
         _check_count(self.n_inputs, "n_inputs", 0)
         _check_n_steps(self.n_steps)
         counts = (("state_names", self.n_states), ("input_names", self.n_inputs))
+        seen = {}
         for attr, count in counts:
             names = getattr(self, attr)
             if names is None:
                 continue
+            # A string is a sequence of characters: "ab" would name two states
+            # "a" and "b" without the caller meaning it.
+            if isinstance(names, (str, bytes)) or not hasattr(names, "__iter__"):
+                raise ValueError(
+                    f"{attr} must be a sequence of {count} names (a list or tuple "
+                    f"of str), not a single {type(names).__name__}; got "
+                    f"{attr}={names!r}."
+                )
             names = tuple(str(n) for n in names)
             if len(names) != count:
                 raise ValueError(
                     f"{attr} must hold {count} names; got {attr}={names!r}."
                 )
+            for name in names:
+                if name in seen:
+                    raise ValueError(
+                        f"{attr} repeats the name {name!r} (already in "
+                        f"{seen[name]}); a row's feature names must be unique. "
+                        f"Got {attr}={names!r}."
+                    )
+                seen[name] = attr
             object.__setattr__(self, attr, names)
 
     @classmethod
@@ -427,9 +460,37 @@ class WindowLayout:
         X : array or tensor of shape (n_samples, n_features)
             Rows in this layout.
         """
-        parts = [states] if inputs is None or self.n_inputs == 0 else [states, inputs]
-        steps = _concat(parts, axis=2) if len(parts) > 1 else states
-        return steps.reshape(steps.shape[0], self.n_features)
+        n = self._check_shape(states, "states", (None, self.n_steps, self.n_states))
+        if self.n_inputs:
+            if inputs is None:
+                raise ValueError(
+                    f"inputs is needed: the layout has n_inputs={self.n_inputs} "
+                    f"input columns per step; got inputs=None."
+                )
+            self._check_shape(inputs, "inputs", (n, self.n_steps, self.n_inputs))
+            steps = _concat([states, inputs], axis=2)
+        else:
+            if inputs is not None:
+                self._check_shape(inputs, "inputs", (n, self.n_steps, 0))
+            steps = states
+        return steps.reshape(n, self.n_features)
+
+    def _check_shape(self, array, name, expected):
+        """Raise a ValueError naming ``name`` unless ``array`` has this shape.
+
+        ``None`` in ``expected`` accepts any length; returns the first axis.
+        """
+        shape = tuple(getattr(array, "shape", ()))
+        if len(shape) != len(expected) or any(
+            e is not None and s != e for s, e in zip(shape, expected, strict=True)
+        ):
+            wanted = ", ".join("n_samples" if e is None else str(e) for e in expected)
+            raise ValueError(
+                f"{name} must have shape ({wanted}) for this layout (n_states="
+                f"{self.n_states}, n_inputs={self.n_inputs}, n_steps={self.n_steps})"
+                f"; got shape {shape}."
+            )
+        return shape[0]
 
     def newest_states(self, X):
         """The state of the newest step of each row, ``(n_samples, n_states)``.
@@ -468,13 +529,18 @@ class WindowLayout:
         X_next : array or tensor of shape (n_samples, n_features)
             The shifted rows.
         """
-        parts = [self.check(X)[:, self.step_width :], next_state]
+        n = self.check(X).shape[0]
+        self._check_shape(next_state, "next_state", (n, self.n_states))
+        parts = [X[:, self.step_width :], next_state]
         if self.n_inputs:
             if next_input is None:
                 raise ValueError(
                     f"next_input is needed: the layout has {self.n_inputs} inputs."
                 )
+            self._check_shape(next_input, "next_input", (n, self.n_inputs))
             parts.append(next_input)
+        elif next_input is not None:
+            self._check_shape(next_input, "next_input", (n, 0))
         return _concat(parts, axis=1)
 
     def continues(self, X, y, *, atol=0.0):
@@ -493,10 +559,11 @@ class WindowLayout:
         X : array of shape (n_samples, n_features)
             Rows in this layout, in time order.
         y : array of shape (n_samples, n_states) or (n_samples,)
-            The targets of the rows.
+            The targets of the rows (1-D only when ``n_states == 1``); another
+            width raises a ValueError.
         atol : float, default=0.0
-            Absolute tolerance of the comparison (0: exact, as for rows cut
-            from the same sequence).
+            Absolute tolerance of the comparison, finite and >= 0 (0: exact, as
+            for rows cut from the same sequence).
 
         Returns
         -------
@@ -504,7 +571,17 @@ class WindowLayout:
             ``continues[i]`` is True when row ``i + 1`` continues row ``i``.
         """
         X = np.asarray(self.check(X))
-        y = np.asarray(y).reshape(len(X), -1)
+        y = np.asarray(y)
+        if y.ndim == 1 and self.n_states == 1:
+            y = y[:, None]
+        self._check_shape(y, "y", (len(X), self.n_states))
+        if (
+            isinstance(atol, bool)
+            or not isinstance(atol, Real)
+            or not np.isfinite(atol)
+            or atol < 0
+        ):
+            raise ValueError(f"atol must be a finite number >= 0; got atol={atol!r}.")
         if len(X) < 2:
             return np.zeros(0, dtype=bool)
         older = np.abs(X[1:, : -self.step_width] - X[:-1, self.step_width :])
@@ -519,7 +596,7 @@ class WindowLayout:
         X : array of shape (n_samples, n_features)
             Rows in this layout, in time order.
         y : array of shape (n_samples, n_states) or (n_samples,)
-            The targets of the rows.
+            The targets of the rows (1-D only when ``n_states == 1``).
         horizon : int
             Rows per sub-sequence (1: every row).
         atol : float, default=0.0
@@ -530,7 +607,8 @@ class WindowLayout:
         starts : ndarray of int
             Indices ``i`` such that rows ``i .. i + horizon - 1`` each continue
             the one before; simulating ``horizon`` steps from row ``i`` then
-            meets the targets ``y[i : i + horizon]``.
+            meets the targets ``y[i : i + horizon]``. Empty when fewer than
+            ``horizon`` rows are given.
 
         Examples
         --------
@@ -541,10 +619,12 @@ class WindowLayout:
         array([0, 1, 4])
         """
         horizon = _check_count(horizon, "horizon", 1)
+        ok = self.continues(X, y, atol=atol).astype(int)
         n = len(X)
         if horizon == 1:
             return np.arange(n)
-        ok = self.continues(X, y, atol=atol).astype(int)
+        if n < horizon:  # too few rows for a single sub-sequence
+            return np.zeros(0, dtype=np.intp)
         # A start i needs ok[i .. i + horizon - 2] all true: a window sum.
         run = np.convolve(ok, np.ones(horizon - 1, dtype=int), mode="valid")
         return np.flatnonzero(run == horizon - 1)
@@ -580,3 +660,67 @@ class WindowLayout:
                 f"the layout expects {self.n_states} and {self.n_inputs}."
             )
         return out
+
+
+#: Rows read by :func:`infer_n_steps`: continuity is local, so the start of a
+#: long record tells as much as all of it, at a bounded cost.
+_INFER_MAX_ROWS = 2000
+
+
+def infer_n_steps(X, y):
+    """The window length under which the rows of ``X`` continue each other.
+
+    Rows cut from sequences in time order by :func:`make_windows` continue each
+    other (:meth:`WindowLayout.continues`: row ``i + 1`` is row ``i`` shifted one
+    step, with the target ``y[i]`` as its newest state) under their true
+    ``n_steps`` only. Every ``n_steps`` that divides the row into steps at least
+    ``n_outputs`` wide is tried on the first 2000 rows; one is returned when most
+    rows continue under it and fewer than half as many under any other.
+
+    Estimators use it at ``fit`` to tell a user which ``n_steps`` to set when the
+    rows say another than the one given.
+
+    Parameters
+    ----------
+    X : array-like of shape (n_samples, n_features)
+        Rows, in time order for the answer to be found.
+    y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+        Their targets, the state after each row.
+
+    Returns
+    -------
+    n_steps : int or None
+        The window length the rows follow; None when they do not tell (shuffled
+        rows, too few rows, or rows that continue under several lengths, as a
+        state that does not change does).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.preprocessing import infer_n_steps, make_windows
+    >>> rng = np.random.default_rng(0)
+    >>> X, y = make_windows(rng.normal(size=50), rng.normal(size=50), n_steps=3)
+    >>> infer_n_steps(X, y)
+    3
+    >>> print(infer_n_steps(X[::-1], y[::-1]))  # not in time order
+    None
+    """
+    X = np.asarray(X)[: _INFER_MAX_ROWS + 1]
+    y = np.asarray(y)[: _INFER_MAX_ROWS + 1]
+    if X.ndim != 2 or len(X) < 3 or len(y) != len(X):
+        return None
+    Y = y.reshape(len(X), -1)
+    n_features, n_outputs = X.shape[1], Y.shape[1]
+    counts = {}
+    for n_steps in range(1, n_features + 1):
+        if n_features % n_steps or n_features // n_steps < n_outputs:
+            continue
+        layout = WindowLayout.from_shapes(n_features, n_outputs, n_steps=n_steps)
+        counts[n_steps] = int(np.sum(layout.continues(X, Y)))
+    if not counts:
+        return None
+    best = max(counts, key=counts.get)
+    others = [c for k, c in counts.items() if k != best]
+    if counts[best] > (len(X) - 1) / 2 and all(c < counts[best] / 2 for c in others):
+        return best
+    return None

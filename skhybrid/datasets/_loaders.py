@@ -30,6 +30,97 @@ def _find_file(path, subfolder, filename, loader):
     )
 
 
+class _MatFile:
+    """The variables of one ``.mat`` file, checked at the boundary.
+
+    Every check raises one ValueError that names the loader, the file, the
+    variable and the value received, before any model sees the data: a corrupt
+    file must not run to completion with a silent wrong answer (a sample period
+    of 0 freezes a simulation at its start values).
+    """
+
+    def __init__(self, file, loader):
+        self.file, self.loader = Path(file), loader
+        try:
+            self.mat = loadmat(self.file)
+        except Exception as exc:  # scipy raises MatReadError, OSError, ValueError
+            raise ValueError(
+                f"{loader}: {self.file} is not a readable MATLAB .mat file "
+                f"({type(exc).__name__}: {exc}); it may be truncated, empty or "
+                f"of another format. Replace it with the benchmark's original file."
+            ) from exc
+
+    def _fail(self, name, problem):
+        raise ValueError(f"{self.loader}: {self.file}: variable {name!r} {problem}.")
+
+    def _array(self, name):
+        if name not in self.mat:
+            present = sorted(k for k in self.mat if not k.startswith("__"))
+            self._fail(name, f"is missing; the file holds {present}")
+        value = self.mat[name]
+        try:
+            return np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            self._fail(
+                name, f"must be numeric; got {type(value).__name__} {value!r:.80}"
+            )
+
+    def vector(self, name):
+        """The variable as a finite column of shape (n_times, 1)."""
+        array = self._array(name)
+        if array.ndim > 2 or (array.ndim == 2 and min(array.shape) != 1):
+            self._fail(
+                name,
+                f"must be a vector (one row or one column); got shape {array.shape}",
+            )
+        column = array.reshape(-1, 1)
+        if column.shape[0] == 0:
+            self._fail(name, "is empty; got shape " + str(array.shape))
+        bad = np.flatnonzero(~np.isfinite(column[:, 0]))
+        if bad.size:
+            self._fail(
+                name,
+                f"must hold finite values; got {name}[{bad[0]}]="
+                f"{float(column[bad[0], 0])!r} ({bad.size} non-finite of "
+                f"{column.shape[0]})",
+            )
+        return column
+
+    def scalar(self, name, *, positive=False, what="value"):
+        """The variable as one finite float (positive where asked)."""
+        array = self._array(name)
+        if array.size != 1:
+            self._fail(name, f"must be a single {what}; got shape {array.shape}")
+        value = float(array.item())
+        if not np.isfinite(value) or (positive and value <= 0):
+            allowed = "a positive finite" if positive else "a finite"
+            self._fail(name, f"must be {allowed} {what}; got {name}={value!r}")
+        return value
+
+    def record(self, u_name, y_name, n_init):
+        """Input and output columns of equal length, at least ``n_init + 1`` long."""
+        u, y = self.vector(u_name), self.vector(y_name)
+        if u.shape[0] != y.shape[0]:
+            self._fail(
+                y_name,
+                f"must have as many samples as the input {u_name!r}; got "
+                f"{y.shape[0]} samples and {u_name} has {u.shape[0]}",
+            )
+        what = f"{self.loader}: {self.file}: variable {y_name!r}"
+        _check_record_length(u.shape[0], n_init, what)
+        return u, y
+
+
+def _check_record_length(n_samples, n_init, what):
+    """Raise when a record cannot hold ``n_init`` initial samples and one more."""
+    if n_samples < n_init + 1:
+        raise ValueError(
+            f"{what} has {n_samples} samples; a record needs at least "
+            f"n_init + 1 = {n_init + 1} (n_init={n_init} samples initialise a "
+            f"model's state and at least one is predicted)."
+        )
+
+
 def _column(array):
     return np.asarray(array, dtype=float).reshape(-1, 1)
 
@@ -98,6 +189,16 @@ def load_silverbox(path):
         DESCR : str
             Description, splits and citation.
 
+    Raises
+    ------
+    FileNotFoundError
+        When the file is in neither ``path`` nor its subfolder.
+    ValueError
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or than the official splits need; the message
+        names the file, the variable and the value received.
+
     See Also
     --------
     load_cascaded_tanks : Another measured benchmark.
@@ -117,8 +218,17 @@ def load_silverbox(path):
     (65062, 1)
     """
     file = _find_file(path, "silverbox", "SNLS80mV.mat", "load_silverbox")
-    mat = loadmat(file)
-    u, y = _column(mat["V1"]), _column(mat["V2"])
+    mat = _MatFile(file, "load_silverbox")
+    u, y = mat.record("V1", "V2", 50)
+    # The official splits index the whole record: it must reach their ends (each
+    # split is then longer than n_init + 1).
+    end = max(stop for _, stop in _SILVERBOX_SPLITS.values())
+    if u.shape[0] < end:
+        mat._fail(
+            "V2",
+            f"has {u.shape[0]} samples; the official splits need at least {end} "
+            f"(the end of test_multisine)",
+        )
     splits = {
         name: _split(u, y, slice(*idx)) for name, idx in _SILVERBOX_SPLITS.items()
     }
@@ -185,6 +295,16 @@ def load_cascaded_tanks(path):
         DESCR : str
             Description, splits and citation.
 
+    Raises
+    ------
+    FileNotFoundError
+        When the file is in neither ``path`` nor its subfolder.
+    ValueError
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or the sample period ``Ts`` is not positive; the
+        message names the file, the variable and the value received.
+
     See Also
     --------
     load_silverbox : Another measured benchmark.
@@ -199,14 +319,17 @@ def load_cascaded_tanks(path):
     file = _find_file(
         path, "cascaded_tanks", "dataBenchmark.mat", "load_cascaded_tanks"
     )
-    mat = loadmat(file)
+    mat = _MatFile(file, "load_cascaded_tanks")
+    n_init = 50
+    splits = {
+        "train": _split(*mat.record("uEst", "yEst", n_init)),
+        "test": _split(*mat.record("uVal", "yVal", n_init)),
+    }
+    dt = mat.scalar("Ts", positive=True, what="sample period (s)")
     return Bunch(
-        splits={
-            "train": _split(mat["uEst"], mat["yEst"]),
-            "test": _split(mat["uVal"], mat["yVal"]),
-        },
-        n_init=50,
-        dt=float(np.asarray(mat["Ts"]).item()),
+        splits=splits,
+        n_init=n_init,
+        dt=dt,
         input_names=["pump_voltage"],
         output_names=["lower_tank_level"],
         DESCR=_TANKS_DESCR,
@@ -264,6 +387,17 @@ def load_emps(path):
         DESCR : str
             Description, splits and citation.
 
+    Raises
+    ------
+    FileNotFoundError
+        When the file is in neither ``path`` nor its subfolder.
+    ValueError
+        When a file is not a readable ``.mat`` file, a variable is missing, not a
+        vector or not finite, inputs and outputs differ in length, a record is
+        shorter than ``n_init + 1`` or the time stamps ``t`` do not increase (a
+        sample period that is not positive); the message names the file, the
+        variable and the value received.
+
     See Also
     --------
     load_silverbox : Another measured benchmark.
@@ -276,19 +410,40 @@ def load_emps(path):
     ['test', 'train']
     """
     splits = {}
+    n_init = 20
     for name, filename in (
         ("train", "DATA_EMPS.mat"),
         ("test", "DATA_EMPS_PULSES.mat"),
     ):
-        mat = loadmat(_find_file(path, "emps", filename, "load_emps"))
-        split = _split(mat["vir"], mat["qm"])
-        split.t = _column(mat["t"])
-        split.reference = _column(mat["qg"])
+        mat = _MatFile(_find_file(path, "emps", filename, "load_emps"), "load_emps")
+        split = _split(*mat.record("vir", "qm", n_init))
+        for key, variable in (("t", "t"), ("reference", "qg")):
+            column = mat.vector(variable)
+            if column.shape[0] != split.y.shape[0]:
+                mat._fail(
+                    variable,
+                    f"must have as many samples as the output 'qm'; got "
+                    f"{column.shape[0]} samples and qm has {split.y.shape[0]}",
+                )
+            split[key] = column
+        # The time stamps carry the sample period: each step must be positive.
+        steps = np.diff(split.t[:, 0])
+        if steps.size and steps.min() <= 0:
+            k = int(np.argmin(steps))
+            mat._fail(
+                "t",
+                f"must increase at every sample (the sample period is "
+                f"t[k + 1] - t[k] > 0); got t[{k + 1}] - t[{k}] = "
+                f"{float(steps[k]):.6g} s",
+            )
         splits[name] = split
+    controller = {
+        k: mat.scalar(k, what="controller constant") for k in ("gtau", "kp", "kv")
+    }
     return Bunch(
         splits=splits,
-        controller={k: float(np.asarray(mat[k]).item()) for k in ("gtau", "kp", "kv")},
-        n_init=20,
+        controller=controller,
+        n_init=n_init,
         # The nominal 1 kHz of the description (the stored t is rounded).
         dt=1e-3,
         input_names=["vir"],

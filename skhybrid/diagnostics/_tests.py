@@ -396,6 +396,17 @@ def residual_acf(residuals, nlags=20, *, alpha=0.05, bartlett_confint=True):
     ljung_box_test : One test over all these lags.
     ResidualACFDisplay : Plots this result with the Ljung-Box p-value.
 
+    Notes
+    -----
+    Degenerate residuals give answers, not NaN, and the same answer as
+    :func:`ljung_box_test`: a constant column (a perfect model's zero residual
+    included) has no autocorrelation, so its ``acf`` is 1 at lag 0 and 0 at every
+    other lag, with the white-noise band ``z / sqrt(n)``; no lag exceeds the
+    band, as the Ljung-Box test of the same column passes (``Q = 0``, p-value
+    1). A constant offset is a bias, which no whiteness test sees: check the
+    residuals' mean for it. The result does not depend on the residuals' scale.
+    NaN or infinite residuals raise a ValueError.
+
     Examples
     --------
     >>> import numpy as np
@@ -413,9 +424,25 @@ def residual_acf(residuals, nlags=20, *, alpha=0.05, bartlett_confint=True):
     alpha = _check_alpha(alpha)
     values = np.empty((nlags + 1, r.shape[1]))
     confint = np.empty((nlags + 1, r.shape[1], 2))
+    z = stats.norm.ppf(1.0 - alpha / 2.0)
     for j in range(r.shape[1]):
+        column = r[:, j]
+        if np.ptp(column) == 0:
+            # A constant residual (zero included) has no autocorrelation, as in
+            # ljung_box_test (Q = 0, p = 1): 1 at lag 0, 0 beyond, inside the
+            # white-noise band z / sqrt(n) (Bartlett's band with every rho = 0),
+            # rather than statsmodels' 0 / 0 = NaN.
+            values[:, j] = 0.0
+            values[0, j] = 1.0
+            half = np.full(nlags + 1, z / np.sqrt(n_samples))
+            half[0] = 0.0
+            confint[:, j, 0] = values[:, j] - half
+            confint[:, j, 1] = values[:, j] + half
+            continue
+        # The autocorrelation is scale invariant; dividing by the largest
+        # magnitude keeps the sums of squares from overflowing at any scale.
         rho, ci = _sm_acf(
-            r[:, j],
+            column / np.max(np.abs(column)),
             nlags=nlags,
             alpha=alpha,
             fft=True,

@@ -5,6 +5,7 @@ import inspect
 import numpy as np
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.preprocessing import infer_n_steps, step_width
 
 __all__ = ["ParametricModel"]
 
@@ -50,7 +51,10 @@ class ParametricModel(DomainModel):
     max_nfev : int or None, default=None
         Most residual evaluations.
     n_steps : int, default=1
-        Time steps per row (``func`` sees them all).
+        Time steps per row (``func`` sees them all). ``fit`` checks it against
+        the rows: rows in time order that continue each other as windows of
+        another length (see :func:`~skhybrid.preprocessing.infer_n_steps`) raise
+        a ValueError saying which value to set.
 
     Attributes
     ----------
@@ -127,6 +131,23 @@ class ParametricModel(DomainModel):
         # arbitrary random data the way a flexible regressor does.
         tags.regressor_tags.poor_score = True
         return tags
+
+    def _set_up(self, X, y):
+        # func reads whatever columns it likes, so a row of any width fits; the
+        # window length shows only at simulate, where the wrong n_steps fails
+        # late and points the wrong way. The rows tell it at fit: rows in time
+        # order continue each other only under their true window length.
+        inferred = infer_n_steps(X, y)
+        if inferred is not None and inferred != self.n_steps:
+            width = step_width(X.shape[1], inferred)
+            raise ValueError(
+                f"ParametricModel has n_steps={self.n_steps}, but the rows of X "
+                f"({X.shape[1]} columns) are windows of {inferred} time steps of "
+                f"{width} columns: each row continues the one before it shifted "
+                f"by one step. Set n_steps={inferred} (func still receives the "
+                f"whole row)."
+            )
+        return super()._set_up(X, y)
 
     def _takes_xp(self):
         try:

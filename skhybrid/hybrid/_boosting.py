@@ -11,7 +11,12 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.exceptions import NonWhiteResidualWarning
 from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
-from skhybrid.preprocessing import WindowLayout, split_steps, step_width
+from skhybrid.preprocessing import (
+    WindowLayout,
+    infer_n_steps,
+    split_steps,
+    step_width,
+)
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -150,7 +155,8 @@ class HybridBoostingRegressor(
         Input of the stages after the first (see above).
     n_steps : int, default=1
         Time steps per row of ``X``. A stage with its own ``n_steps`` parameter
-        must use the same value.
+        must use the same value; ``fit`` raises otherwise and says which value to
+        change (the one the rows of ``X`` do not follow).
     validation_fraction : float or None, default=0.1
         Fraction of the rows, taken from the end, held out to score the stages.
         ``None`` fits on every row and scores on the training rows.
@@ -171,7 +177,10 @@ class HybridBoostingRegressor(
     Attributes
     ----------
     stages_ : list of (str, estimator) tuples
-        The fitted stages that were kept, in order.
+        The fitted stages that were kept, in order. ``booster[i]`` and
+        ``booster[name]`` give a fitted stage itself, as a Pipeline's steps.
+    named_stages_ : :class:`~sklearn.utils.Bunch`
+        The fitted, kept stages by name (``booster.named_stages_.physics``).
     dropped_stages_ : list of str
         Names of the stages dropped by ``drop_unhelpful_stages``.
     stage_scores_ : ndarray of shape (n_stages,)
@@ -314,6 +323,86 @@ class HybridBoostingRegressor(
         """The (unfitted) stages as a :class:`~sklearn.utils.Bunch` by name."""
         return Bunch(**dict(self.stages))
 
+    @property
+    def named_stages_(self):
+        """The fitted, kept stages as a :class:`~sklearn.utils.Bunch` by name.
+
+        ``booster.named_stages_.physics`` (or ``["physics"]``) is the fitted
+        estimator itself; ``stages_`` holds the same as ``(name, estimator)``
+        pairs, and ``booster[0]`` or ``booster["physics"]`` also give it.
+        """
+        check_is_fitted(self)
+        return Bunch(**dict(self.stages_))
+
+    def __getitem__(self, key):
+        """A fitted stage by position or name, like indexing a Pipeline.
+
+        Parameters
+        ----------
+        key : int or str
+            Position among the kept stages (``stages_``; negative counts from the
+            end) or a stage name.
+
+        Returns
+        -------
+        estimator : estimator
+            The fitted stage.
+        """
+        check_is_fitted(self)
+        if isinstance(key, str):
+            fitted = dict(self.stages_)
+            if key not in fitted:
+                dropped = (
+                    " (dropped by drop_unhelpful_stages)"
+                    if key in getattr(self, "dropped_stages_", ())
+                    else ""
+                )
+                raise KeyError(
+                    f"no fitted stage named {key!r}{dropped}; the fitted stages "
+                    f"are {list(fitted)}."
+                )
+            return fitted[key]
+        if isinstance(key, Integral) and not isinstance(key, bool):
+            n = len(self.stages_)
+            if not -n <= key < n:
+                raise IndexError(
+                    f"stage index {key} is out of range: the booster has {n} "
+                    f"fitted stages {[name for name, _ in self.stages_]}."
+                )
+            return self.stages_[key][1]
+        raise TypeError(
+            f"index a booster by a stage's position (int) or name (str); got "
+            f"{type(key).__name__} {key!r}."
+        )
+
+    def _sk_visual_block_(self):
+        # One box per stage, in series, each under its stage's name: the way
+        # StackingRegressor shows its final_estimator (a one-estimator parallel
+        # block carries the label; the name before ":" prefixes the parameters,
+        # as set_params reaches them). A fitted booster shows its fitted stages
+        # and labels the ones drop_unhelpful_stages dropped.
+        fitted = dict(getattr(self, "stages_", ()))
+        dropped = set(getattr(self, "dropped_stages_", ()))
+        blocks = []
+        try:
+            for name, template in self.stages:
+                est = fitted.get(name, template)
+                label = f"{name}: dropped" if name in dropped else str(name)
+                blocks.append(
+                    _visual_block(
+                        "parallel",
+                        [est],
+                        names=[label],
+                        name_details=[str(est)],
+                        dash_wrapped=False,
+                    )
+                )
+        except (TypeError, ValueError):  # not (name, estimator) pairs: one box
+            return _visual_block(
+                "single", self, names=type(self).__name__, name_details=str(self)
+            )
+        return _visual_block("serial", blocks, dash_wrapped=False)
+
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
@@ -361,14 +450,67 @@ class HybridBoostingRegressor(
                     f"stage {name!r} must be an estimator with fit and predict; got "
                     f"{est!r}."
                 )
+
+    def _check_stage_n_steps(self, X, Y):
+        """Every stage reads windows of the booster's ``n_steps``; else say the fix.
+
+        The right value to change is the wrong one, so the message is led by the
+        data: rows cut from sequences by :func:`~skhybrid.preprocessing.make_windows`
+        continue each other (row ``i + 1`` is row ``i`` shifted one step) only
+        under their true window length
+        (:func:`~skhybrid.preprocessing.infer_n_steps`). Where the rows do not
+        tell (shuffled), a booster left at its default ``n_steps=1`` under a
+        stage set to another length is the likelier slip.
+        """
+        inferred = infer_n_steps(X, Y)
+        windowed = [
+            name for name, est in self.stages if "n_steps" in est.get_params(deep=False)
+        ]
+        for name, est in self.stages:
             stage_steps = est.get_params(deep=False).get("n_steps", self.n_steps)
-            if stage_steps != self.n_steps:
+            if stage_steps == self.n_steps:
+                continue
+            head = (
+                f"stage {name!r} has n_steps={stage_steps} but the booster has "
+                f"n_steps={self.n_steps}; every stage must read windows of the "
+                f"same length."
+            )
+            fix_booster = (
+                f"set n_steps={stage_steps} on the booster "
+                f"(HybridBoostingRegressor(..., n_steps={stage_steps}))"
+            )
+            fix_stage = f"set {name}__n_steps={self.n_steps}"
+            rows = f"The rows of X ({X.shape[1]} columns) continue each other as"
+            if inferred == stage_steps:
                 raise ValueError(
-                    f"stage {name!r} has n_steps={stage_steps} but the booster has "
-                    f"n_steps={self.n_steps}; every stage must read windows of the "
-                    f"same length: set {name}__n_steps={self.n_steps} or change "
-                    "n_steps."
+                    f"{head} {rows} windows of {stage_steps} steps, not "
+                    f"{self.n_steps}: {fix_booster}."
                 )
+            if inferred == self.n_steps:
+                raise ValueError(
+                    f"{head} {rows} windows of {self.n_steps} steps, not "
+                    f"{stage_steps}: {fix_stage}."
+                )
+            first, second = (
+                (fix_booster, fix_stage)
+                if self.n_steps == 1
+                else (fix_stage, fix_booster)
+            )
+            raise ValueError(
+                f"{head} Set n_steps to the window length of X's rows: {first}, or "
+                f"{second}."
+            )
+        if inferred is not None and inferred != self.n_steps:
+            # Every stage agrees with the booster, but the rows do not: a booster
+            # and stages left at n_steps=1 on windows of 2 steps fit without
+            # complaint and fail only at simulate.
+            stages = "".join(f", {name}__n_steps={inferred}" for name in windowed)
+            raise ValueError(
+                f"the booster has n_steps={self.n_steps}, but the rows of X "
+                f"({X.shape[1]} columns) continue each other as windows of "
+                f"{inferred} steps: set n_steps={inferred} on the booster"
+                + (f" and on its windowed stages ({stages[2:]})." if stages else ".")
+            )
 
     def _split(self, n):
         if self.validation_fraction is None:
@@ -473,6 +615,7 @@ class HybridBoostingRegressor(
         )
         self._y_1d = y.ndim == 1
         Y = y[:, None] if self._y_1d else y
+        self._check_stage_n_steps(X, Y)
         self.n_outputs_ = Y.shape[1]
         w = step_width(X.shape[1], self.n_steps)
         if self.stage_input == "window+prediction+residuals" and self.n_steps > 1:
@@ -721,6 +864,19 @@ class HybridBoostingRegressor(
     def domain_params_std_(self):
         """``params_std_`` of the first fitted domain-model stage."""
         return self._domain_stage().params_std_
+
+
+def _visual_block(kind, estimators, **kwargs):
+    """scikit-learn's HTML-representation block (a private class that moved in 1.7).
+
+    Imported here, lazily, because only the HTML representation needs it; it
+    belongs with the other private names in ``skhybrid.utils._sklearn_compat``.
+    """
+    try:
+        from sklearn.utils._repr_html.estimator import _VisualBlock
+    except ImportError:  # scikit-learn < 1.7
+        from sklearn.utils._estimator_html_repr import _VisualBlock
+    return _VisualBlock(kind, estimators, **kwargs)
 
 
 def _rmse(r):

@@ -275,3 +275,38 @@ def test_degenerate_residuals_give_documented_answers():
         assert report.passed
     with pytest.raises(ValueError, match=r"NaN|infinity"):
         ljung_box_test(np.array([1.0, np.nan, 2.0, 3.0, 1.0]), lags=2)
+
+
+@pytest.mark.parametrize("level", [0.0, 3.0, -1e-300, 1e300])
+@pytest.mark.parametrize("bartlett", [True, False])
+def test_residual_acf_of_constant_residuals_agrees_with_ljung_box(level, bartlett):
+    """Zero or constant residuals: no NaN, no warning, white as Ljung-Box says."""
+    import warnings
+
+    n, nlags = 150, 12
+    rng = np.random.default_rng(0)
+    residuals = np.column_stack([np.full(n, level), rng.standard_normal(n)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # NumPy's "invalid value" included
+        res = residual_acf(residuals, nlags=nlags, bartlett_confint=bartlett)
+        whiteness = ljung_box_test(residuals, lags=nlags)
+    assert np.all(np.isfinite(res.acf)) and np.all(np.isfinite(res.confint))
+    assert_array_equal(res.acf[:, 0], np.r_[1.0, np.zeros(nlags)])
+    z = stats.norm.ppf(0.975)
+    assert_allclose(res.band[1:, 0], z / np.sqrt(n), rtol=1e-12)
+    assert res.band[0, 0] == 0.0
+    # Both tests call the constant column white.
+    assert not res.exceeds[:, 0].any()
+    assert whiteness.passed[0] and whiteness.statistic[0] == 0.0
+    # The other column is untouched: statsmodels' answer.
+    expected = acf(residuals[:, 1], nlags=nlags, fft=True)
+    assert_allclose(res.acf[:, 1], expected, rtol=1e-10, atol=1e-12)
+
+
+def test_residual_acf_does_not_depend_on_scale():
+    x = np.random.default_rng(1).standard_normal((300, 1))
+    base = residual_acf(x, nlags=10)
+    for scale in (1e-200, 1e200, 1e300):
+        scaled = residual_acf(x * scale, nlags=10)
+        assert_allclose(scaled.acf, base.acf, rtol=1e-9, atol=1e-15)
+        assert_allclose(scaled.band, base.band, rtol=1e-9, atol=1e-15)

@@ -10,8 +10,11 @@ Each simulator comes with the physics a benchmark fits to it:
 :func:`dc_motor_step` (or :class:`~skhybrid.domain.LinearStateSpaceModel`) for
 :func:`make_dc_motor`.
 
-Loaders read the measured benchmark data from a folder the caller names; nothing
-is downloaded.
+Loaders (``load_*``) read the measured benchmark data from a folder the caller
+names and download nothing; fetchers (``fetch_*``) download the official files
+once into a data home (:func:`get_data_home`: a parameter, or the
+``SKHYBRID_DATA`` environment variable), check their SHA256 and return what the
+matching loader returns.
 """
 
 from skhybrid.datasets._dc_motor import dc_motor_step, make_dc_motor
@@ -19,14 +22,36 @@ from skhybrid.datasets._double_pendulum import (
     make_double_pendulum,
     single_pendulum_step,
 )
-from skhybrid.datasets._loaders import load_cascaded_tanks, load_emps, load_silverbox
+from skhybrid.datasets._fetch import (
+    fetch_cascaded_tanks,
+    fetch_coupled_electric_drives,
+    fetch_emps,
+    fetch_silverbox,
+    fetch_wiener_hammerstein,
+    get_data_home,
+)
+from skhybrid.datasets._loaders import (
+    load_cascaded_tanks,
+    load_coupled_electric_drives,
+    load_emps,
+    load_silverbox,
+    load_wiener_hammerstein,
+)
 from skhybrid.datasets._pendulum import make_pendulum
 
 __all__ = [
     "dc_motor_step",
+    "fetch_cascaded_tanks",
+    "fetch_coupled_electric_drives",
+    "fetch_emps",
+    "fetch_silverbox",
+    "fetch_wiener_hammerstein",
+    "get_data_home",
     "load_cascaded_tanks",
+    "load_coupled_electric_drives",
     "load_emps",
     "load_silverbox",
+    "load_wiener_hammerstein",
     "make_dc_motor",
     "make_double_pendulum",
     "make_pendulum",

@@ -450,3 +450,166 @@ def load_emps(path):
         output_names=["qm"],
         DESCR=_EMPS_DESCR,
     )
+
+
+_CED_DESCR = """\
+Coupled electric drives (measured)
+----------------------------------
+
+Two motors drive a pulley through a flexible belt; the input is the sum of the
+motors' voltages, the output the pulley's speed, measured by a pulse counter
+that cannot sense the sign of the velocity (so the output is the absolute value)
+and low-pass filtered. DATAUNIF holds two records of 500 samples at Ts = 20 ms
+with a uniformly distributed input: record 1 (u11 -> z11, "low" amplitude) and
+record 2 (u12 = u11 + 0.5 -> z12, "high"). The official split
+(nonlinear-benchmarks v1.0.1) trains on samples [:400] of each record and tests
+on [400:], with n_init = 10; the two test RMSEs are reported separately.
+
+Cite: T. Wigren, M. Schoukens, "Coupled Electric Drives Data Set and Reference
+Models", Technical Report 2017-024, Dept. of Information Technology, Uppsala
+University, 2017.
+"""
+
+
+def load_coupled_electric_drives(path):
+    """Load the Coupled Electric Drives benchmark (DATAUNIF, both records).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Folder holding ``DATAUNIF.MAT``, or its parent holding
+        ``coupled_electric_drives/``.
+
+    Returns
+    -------
+    data : :class:`~sklearn.utils.Bunch`
+        Dictionary-like object with:
+
+        splits : dict of str to Bunch
+            ``"train_1"``, ``"test_1"`` (record 1, ``u11`` -> ``z11``) and
+            ``"train_2"``, ``"test_2"`` (record 2, ``u12`` -> ``z12``): samples
+            ``[:400]`` and ``[400:]`` of each, a Bunch of ``u`` and ``y`` each.
+        n_init : int
+            Samples at the start of a test split that may initialise a model's
+            state (10).
+        dt : float
+            Sample period (s), 0.02.
+        input_names, output_names : list of str
+            ``["voltage"]`` and ``["pulley_speed"]``.
+        DESCR : str
+            Description, splits and citation.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the file is in neither ``path`` nor its subfolder.
+    ValueError
+        When the file is not a readable ``.mat`` file or a variable is missing,
+        not a finite vector, or of another length than its partner.
+
+    Examples
+    --------
+    >>> from skhybrid.datasets import load_coupled_electric_drives
+    >>> data = load_coupled_electric_drives("path/to/shared/data")  # doctest: +SKIP
+    >>> data.splits["test_1"].y.shape  # doctest: +SKIP
+    (100, 1)
+    """
+    file = _find_file(
+        path, "coupled_electric_drives", "DATAUNIF.MAT", "load_coupled_electric_drives"
+    )
+    mat = _MatFile(file, "load_coupled_electric_drives")
+    n_init, n_train = 10, 400
+    splits = {}
+    for i in (1, 2):
+        u, y = mat.record(f"u1{i}", f"z1{i}", n_train + n_init)
+        splits[f"train_{i}"] = _split(u, y, slice(None, n_train))
+        splits[f"test_{i}"] = _split(u, y, slice(n_train, None))
+    return Bunch(
+        splits=splits,
+        n_init=n_init,
+        dt=0.02,
+        input_names=["voltage"],
+        output_names=["pulley_speed"],
+        DESCR=_CED_DESCR,
+    )
+
+
+_WH_DESCR = """\
+Wiener-Hammerstein benchmark, SYSID 2009 (measured electronic circuit)
+-----------------------------------------------------------------------
+
+A static diode-based nonlinearity between two linear filters (nominal order
+6). uBenchMark and yBenchMark (V), 188000 samples at fs = 51200 Hz. The
+official split (nonlinear-benchmarks v1.0.1) trains on [5200:105200] and tests
+on [105200:184000] with n_init = 50; report the RMSE in mV. (The original 2009
+protocol estimates on samples 1-100000 and scores 101001-188000, 1-based: the
+figures are not interchangeable.)
+
+Cite: J. Schoukens, J. Suykens, L. Ljung, "Wiener-Hammerstein benchmark", 15th
+IFAC Symposium on System Identification (SYSID), 2009.
+"""
+
+
+def load_wiener_hammerstein(path):
+    """Load the Wiener-Hammerstein benchmark of SYSID 2009.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Folder holding ``WienerHammerBenchMark.mat``, or its parent holding
+        ``wiener_hammerstein/``.
+
+    Returns
+    -------
+    data : :class:`~sklearn.utils.Bunch`
+        Dictionary-like object with:
+
+        splits : dict of str to Bunch
+            ``"train"`` (samples ``[5200:105200]``) and ``"test"``
+            (``[105200:184000]``), a Bunch of ``u`` and ``y`` each.
+        n_init : int
+            Samples at the start of the test split that may initialise a model's
+            state (50).
+        dt : float
+            Sample period (s), ``1 / fs``.
+        input_names, output_names : list of str
+            ``["u"]`` and ``["y"]``.
+        DESCR : str
+            Description, splits and citation.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the file is in neither ``path`` nor its subfolder.
+    ValueError
+        When the file is not a readable ``.mat`` file, a variable is missing,
+        not a finite vector or too short for the official split, or ``fs`` is
+        not positive.
+
+    Examples
+    --------
+    >>> from skhybrid.datasets import load_wiener_hammerstein
+    >>> data = load_wiener_hammerstein("path/to/shared/data")  # doctest: +SKIP
+    >>> data.splits["train"].u.shape  # doctest: +SKIP
+    (100000, 1)
+    """
+    file = _find_file(
+        path,
+        "wiener_hammerstein",
+        "WienerHammerBenchMark.mat",
+        "load_wiener_hammerstein",
+    )
+    mat = _MatFile(file, "load_wiener_hammerstein")
+    u, y = mat.record("uBenchMark", "yBenchMark", 184000 - 1)
+    fs = mat.scalar("fs", positive=True, what="sample rate (Hz)")
+    return Bunch(
+        splits={
+            "train": _split(u, y, slice(5200, 105200)),
+            "test": _split(u, y, slice(105200, 184000)),
+        },
+        n_init=50,
+        dt=1.0 / fs,
+        input_names=["u"],
+        output_names=["y"],
+        DESCR=_WH_DESCR,
+    )

@@ -24,7 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-from skhybrid.datasets import load_cascaded_tanks, load_emps, load_silverbox
+from skhybrid.datasets import (
+    fetch_cascaded_tanks,
+    fetch_emps,
+    fetch_silverbox,
+    load_cascaded_tanks,
+    load_emps,
+    load_silverbox,
+)
 from skhybrid.experiments._measured_physics import (
     emps_physics,
     silverbox_physics,
@@ -192,19 +199,16 @@ class MeasuredSystem:
         ----------
         settings : MeasuredSettings
             ``quick`` shortens the Silverbox's estimation record.
-        data : str or Path
-            Folder holding the benchmark files.
+        data : str or Path or None
+            Folder holding the benchmark files; None fetches them (downloaded
+            once into the data home, see
+            :func:`skhybrid.datasets.get_data_home`).
 
         Returns
         -------
         result : MeasuredResult
             The records, ``n_init`` and ``dt``; no model yet.
         """
-        if data is None:
-            raise ValueError(
-                f"data must name the folder holding the {self.name} benchmark "
-                "files (for example ../shared/data); got data=None."
-            )
         train, tests, bunch = self.load(data, quick=settings.quick)
         result = MeasuredResult(self, settings, train, tests, bunch.n_init, bunch.dt)
         if "test_arrow_full" in tests:
@@ -287,7 +291,7 @@ class CascadedTanks(MeasuredSystem):
     unit = "V"
 
     def load(self, data, quick=False):
-        d = load_cascaded_tanks(data)
+        d = fetch_cascaded_tanks() if data is None else load_cascaded_tanks(data)
         s = d.splits
         return (s["train"].u, s["train"].y), {"test": (s["test"].u, s["test"].y)}, d
 
@@ -303,7 +307,7 @@ class EMPS(MeasuredSystem):
     scale = 1e3
 
     def load(self, data, quick=False):
-        d = load_emps(data)
+        d = fetch_emps() if data is None else load_emps(data)
         s = d.splits
         return (s["train"].u, s["train"].y), {"test": (s["test"].u, s["test"].y)}, d
 
@@ -340,7 +344,7 @@ class Silverbox(MeasuredSystem):
     hybrid_records = 6
 
     def load(self, data, quick=False):
-        d = load_silverbox(data)
+        d = fetch_silverbox() if data is None else load_silverbox(data)
         s = d.splits
         train = s["train"]
         n = 16384 if quick else len(train.u)

@@ -411,8 +411,21 @@ def test_run_experiment_runs_a_measured_system_from_python(tmp_path, axis):
     ]
     assert {row["model"] for row in result.rows} == set(TINY)
     assert all(row["unit"] == "mm" for row in result.rows)
-    with pytest.raises(ValueError, match="data must name the folder"):
-        _runner.run_experiment("emps", quick=True)
+
+
+def test_a_measured_run_without_data_fetches_and_says_where_files_go(
+    tmp_path, monkeypatch
+):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on: no network
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    monkeypatch.setenv("SKHYBRID_DATA", str(tmp_path / "home"))
+    monkeypatch.setenv("SKHYBRID_DATA_MIRROR", f"http://127.0.0.1:{port}")
+    with pytest.raises(OSError, match="CascadedTanksFiles.zip") as info:
+        _runner.run_experiment("cascaded-tanks", quick=True)
+    assert str(tmp_path / "home" / "cascaded_tanks") in str(info.value)
 
 
 # -- the real benchmark files ---------------------------------------------------

@@ -183,6 +183,9 @@ class HybridBoostingRegressor(
         The fitted, kept stages by name (``booster.named_stages_.physics``).
     dropped_stages_ : list of str
         Names of the stages dropped by ``drop_unhelpful_stages``.
+    interrupted_ : bool
+        Whether a Ctrl-C cut a stage's training short (that stage kept its best
+        epoch so far and warned; the later stages were fitted as usual).
     stage_scores_ : ndarray of shape (n_stages,)
         Validation RMSE (over all outputs) after each stage of ``stages``, dropped
         ones included (the score they reached when tried).
@@ -636,6 +639,7 @@ class HybridBoostingRegressor(
         scores = []
         self.baseline_score_ = previous = _rmse(Y[val])
         whiteness_rows, residual = [], Y
+        interrupted = False
         for name, template in self.stages:
             est = clone(template)
             _seed_stage(est, rng, self.random_state is not None)
@@ -648,6 +652,7 @@ class HybridBoostingRegressor(
             est.fit(
                 inputs[-1][train], target[train][:, 0] if self._y_1d else target[train]
             )
+            interrupted |= bool(getattr(est, "interrupted_", False))
             parts = [self._stage_predict(est, Z) for Z in inputs]
             new_pred = preds[-1] + parts[-1]
             score = _rmse(Y[val] - new_pred[val])
@@ -662,6 +667,7 @@ class HybridBoostingRegressor(
             residual = Y - preds[-1]
             whiteness_rows.append(residual)
         self.stage_scores_ = np.asarray(scores)
+        self.interrupted_ = interrupted
         self.residual_whiteness_ = _whiteness(
             [n for n, _ in self.stages_], whiteness_rows, self.ljung_box_lags
         )

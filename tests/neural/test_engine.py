@@ -277,3 +277,24 @@ def test_ctrl_c_semantics_are_the_same_for_every_trainer(cls):
     assert done.interrupted_ is True
     assert done.n_epochs_ == 2
     assert 0 <= done.best_epoch_ <= 2
+
+
+def test_a_booster_says_when_a_stage_was_cut_short():
+    from skhybrid.domain import ParametricModel
+    from skhybrid.hybrid import HybridBoostingRegressor
+
+    def line(X, *, a, xp=np):
+        return a * X[:, 1]
+
+    X, y = _rows()
+    stages = [
+        ("physics", ParametricModel(line, {"a": 0.5})),
+        ("dense", DenseRegressor((8,), max_epochs=30, random_state=0)),
+    ]
+    booster = HybridBoostingRegressor(stages).fit(X, y)
+    assert booster.interrupted_ is False
+    booster.set_params(dense__callbacks=[InterruptAt(2)])
+    with pytest.warns(UserWarning, match="interrupted"):
+        booster.fit(X, y)
+    assert booster.interrupted_ is True
+    assert booster["dense"].n_epochs_ == 2

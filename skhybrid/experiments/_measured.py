@@ -87,7 +87,13 @@ PUBLISHED = {
         "test_arrow_full": {
             "linear (LTI SS)": (14.4, "Champneys et al. 2024, arXiv:2405.10779"),
             "best baseline (GP-NARX)": (0.60, "Champneys et al. 2024"),
-            "state of the art (DT-SUBNET)": (1.4, "Beintema et al. 2021"),
+            "DT-SUBNET": (1.4, "Beintema et al. 2021"),
+            "state of the art (PNLSS)": (0.26, "Paduart et al. 2010"),
+        },
+        "test_arrow_no_extrapolation": {
+            "linear (LTI SS)": (6.58, "Champneys et al. 2024, arXiv:2405.10779"),
+            "DT-SUBNET": (0.32, "Beintema et al. 2021"),
+            "state of the art (GP-NARX)": (0.259, "Champneys et al. 2024"),
         },
     },
 }
@@ -348,7 +354,8 @@ class Silverbox(MeasuredSystem):
         s = d.splits
         train = s["train"]
         n = 16384 if quick else len(train.u)
-        tests = {k: (s[k].u, s[k].y) for k in ("test_multisine", "test_arrow_full")}
+        names = ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation")
+        tests = {k: (s[k].u, s[k].y) for k in names}
         return (train.u[:n], train.y[:n]), tests, d
 
     def physics(self, u, y, dt, quick=False):

@@ -423,7 +423,7 @@ def test_a_measured_run_without_data_fetches_and_says_where_files_go(
         port = s.getsockname()[1]
     monkeypatch.setenv("SKHYBRID_DATA", str(tmp_path / "home"))
     monkeypatch.setenv("SKHYBRID_DATA_MIRROR", f"http://127.0.0.1:{port}")
-    with pytest.raises(OSError, match="CascadedTanksFiles.zip") as info:
+    with pytest.raises(OSError, match=r"CascadedTanksFiles\.zip") as info:
         _runner.run_experiment("cascaded-tanks", quick=True)
     assert str(tmp_path / "home" / "cascaded_tanks") in str(info.value)
 

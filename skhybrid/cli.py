@@ -19,9 +19,10 @@ Hybrid physics / neural / stochastic models of dynamical systems.
 alone, a linear state-space model, dense, recurrent and cyclic networks, and the
 physics+network hybrids), scores every model on interpolative and extrapolative
 test sets, and writes results.csv, results.json, the figures and a self-contained
-report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox
---data DIR` does the same for a measured benchmark, scored by its official
-protocol beside the published figures.
+report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox`
+does the same for a measured benchmark, scored by its official protocol beside
+the published figures: its files come from --data DIR, or are downloaded once
+into the data home ($SKHYBRID_DATA, else ~/skhybrid_data) and checked.
 """
 
 EPILOG = """\
@@ -33,7 +34,8 @@ examples:
   skhybrid run pendulum --resume         finish an interrupted run, same report
   skhybrid run all --dask HOST:8786      fit the models on a Dask cluster
   skhybrid run emps --data ../shared/data --quick
-                                         a measured benchmark (files in --data)
+                                         a measured benchmark (files in --data;
+                                         without it, downloaded once)
 
 Every model's scores and fitted model are written to --out as soon as it
 finishes; after a Ctrl-C, the same command (or with --resume) carries on.
@@ -112,14 +114,15 @@ def _build_parser():
         metavar="SYSTEM",
         help="one of: "
         + ", ".join([*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS])
-        + " (the last three are measured benchmarks and need --data)",
+        + " (the last three are measured benchmarks: --data, or downloaded)",
     )
     run.add_argument(
         "--data",
         type=_folder,
         metavar="DIR",
         help="folder holding the measured benchmark files (for example a clone's "
-        "../shared/data); needed by the measured systems",
+        "../shared/data); without it a measured system downloads its files once "
+        "into the data home ($SKHYBRID_DATA, else ~/skhybrid_data)",
     )
     run.add_argument(
         "--quick",
@@ -229,7 +232,7 @@ def _list(out):
         splits = ", ".join(system.split_descriptions())
         out.write(f"{name:<16} {system.title} (section {system.section}; {splits})\n")
     for name, system in experiments.MEASURED_SYSTEMS.items():
-        out.write(f"{name:<16} {system.title} (needs --data DIR)\n")
+        out.write(f"{name:<16} {system.title} (measured: --data DIR, or fetched)\n")
 
 
 def _error(message):
@@ -357,19 +360,18 @@ def main(argv=None):
     from skhybrid.experiments._store import RunFolder, RunFolderError
 
     if args.system in MEASURED_SYSTEMS:
-        if args.data is None:
-            _error(
-                f"{args.system} is a measured benchmark: pass --data DIR, the folder "
-                "holding its files (for example a clone's ../shared/data, with the "
-                "subfolders silverbox/, emps/ and cascaded_tanks/); skhybrid ships "
-                "no data and downloads nothing"
-            )
-            return 2
         if args.noise_type is not None:
             _error(
                 f"--noise-type sets the simulators' noise; {args.system} is a "
                 "measured benchmark: drop --noise-type"
             )
+            return 2
+        try:
+            # The files are checked at the boundary, before any folder is
+            # locked or model trained: a corrupt file is one line and exit 2.
+            _system(args.system).load(args.data, quick=args.quick)
+        except (ValueError, OSError) as exc:
+            _error(str(exc))
             return 2
     elif args.data is not None:
         _error(

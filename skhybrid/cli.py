@@ -366,13 +366,6 @@ def main(argv=None):
                 "measured benchmark: drop --noise-type"
             )
             return 2
-        try:
-            # The files are checked at the boundary, before any folder is
-            # locked or model trained: a corrupt file is one line and exit 2.
-            _system(args.system).load(args.data, quick=args.quick)
-        except (ValueError, OSError) as exc:
-            _error(str(exc))
-            return 2
     elif args.data is not None:
         _error(
             f"--data names a measured benchmark's files; {args.system} is "
@@ -424,6 +417,14 @@ def _run(args, argv, names, command, folder):
                 f"resuming: {n_finished} of {n_models} models already finished in "
                 f"{folder.path}\n"
             )
+        if args.system in MEASURED_SYSTEMS:
+            # The files are checked at the boundary, before any model trains:
+            # a corrupt or missing file is one line and exit 2.
+            try:
+                _system(args.system).load(args.data, quick=args.quick)
+            except (ValueError, OSError) as exc:
+                _error(str(exc))
+                return 2
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
             if args.dask is not None:

@@ -201,16 +201,21 @@ def _urls(spec, mirror):
 def _download(url, target, known_hash=None):
     import pooch
 
-    fname = target.name
-    return Path(
-        pooch.retrieve(
-            url,
-            known_hash=known_hash,
-            fname=fname,
-            path=target.parent,
-            progressbar=False,
+    logger = pooch.get_logger()
+    level = logger.level
+    logger.setLevel("WARNING")  # errors are ours to report, in one message
+    try:
+        return Path(
+            pooch.retrieve(
+                url,
+                known_hash=known_hash,
+                fname=target.name,
+                path=target.parent,
+                progressbar=False,
+            )
         )
-    )
+    finally:
+        logger.setLevel(level)
 
 
 def _extract(archive, folder, names):

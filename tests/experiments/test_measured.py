@@ -173,10 +173,21 @@ def test_published_figures_are_data_with_sources():
                 assert value > 0 and source
 
 
-def test_run_without_data_says_what_to_pass(capsys, tmp_path):
+def test_run_without_data_fetches_and_offline_says_what_to_do(
+    capsys, tmp_path, monkeypatch
+):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on: no network
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    monkeypatch.setenv("SKHYBRID_DATA", str(tmp_path / "home"))
+    monkeypatch.setenv("SKHYBRID_DATA_MIRROR", f"http://127.0.0.1:{port}")
     assert main(["run", "emps", "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err
-    assert "--data DIR" in err and "emps" in err
+    assert err.count("\n") == 1, err  # one line
+    assert "EMPS.zip" in err and str(tmp_path / "home" / "emps") in err
+    assert "--data" in err
 
 
 def test_unknown_system_is_refused(tmp_path):

@@ -79,9 +79,7 @@ CASES = {
 
 
 @pytest.mark.parametrize("case", list(CASES))
-def test_a_corrupt_file_is_one_line_and_exit_2_before_any_folder(
-    case, tmp_path, capsys
-):
+def test_a_corrupt_file_is_one_line_and_exit_2_before_training(case, tmp_path, capsys):
     system, folder, filename, change, message = CASES[case]
     data = _copy_with(tmp_path, folder, filename, change)
     out = tmp_path / "out"
@@ -90,4 +88,5 @@ def test_a_corrupt_file_is_one_line_and_exit_2_before_any_folder(
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0, err
     assert message in err and filename in err
-    assert not out.exists()  # nothing locked, nothing trained
+    # Nothing trained: no model and no report in the run folder.
+    assert not list(out.rglob("*.joblib")) and not (out / "report.html").exists()

@@ -25,6 +25,7 @@ from skhybrid.utils._sklearn_compat import (
     _BaseComposition,
     _fit_context,
     validate_data,
+    visual_block,
 )
 from skhybrid.utils._transaction import TransactionalFitMixin
 
@@ -392,7 +393,7 @@ class HybridBoostingRegressor(
                 est = fitted.get(name, template)
                 label = f"{name}: dropped" if name in dropped else str(name)
                 blocks.append(
-                    _visual_block(
+                    visual_block(
                         "parallel",
                         [est],
                         names=[label],
@@ -401,10 +402,10 @@ class HybridBoostingRegressor(
                     )
                 )
         except (TypeError, ValueError):  # not (name, estimator) pairs: one box
-            return _visual_block(
+            return visual_block(
                 "single", self, names=type(self).__name__, name_details=str(self)
             )
-        return _visual_block("serial", blocks, dash_wrapped=False)
+        return visual_block("serial", blocks, dash_wrapped=False)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -870,19 +871,6 @@ class HybridBoostingRegressor(
     def domain_params_std_(self):
         """``params_std_`` of the first fitted domain-model stage."""
         return self._domain_stage().params_std_
-
-
-def _visual_block(kind, estimators, **kwargs):
-    """scikit-learn's HTML-representation block (a private class that moved in 1.7).
-
-    Imported here, lazily, because only the HTML representation needs it; it
-    belongs with the other private names in ``skhybrid.utils._sklearn_compat``.
-    """
-    try:
-        from sklearn.utils._repr_html.estimator import _VisualBlock
-    except ImportError:  # scikit-learn < 1.7
-        from sklearn.utils._estimator_html_repr import _VisualBlock
-    return _VisualBlock(kind, estimators, **kwargs)
 
 
 def _rmse(r):

@@ -98,6 +98,11 @@ def _build_parser():
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    from skhybrid import __version__
+
+    parser.add_argument(
+        "--version", action="version", version=f"skhybrid {__version__}"
+    )
     sub = parser.add_subparsers(dest="command", metavar="{run,list}")
     sub.required = True
     run = sub.add_parser(
@@ -179,7 +184,15 @@ def _build_parser():
         "(e.g. tcp://host:8786), or on a local cluster of --n-jobs workers with "
         "'local'; needs dask[distributed]",
     )
-    sub.add_parser("list", help="list the systems and what they show")
+    listing = sub.add_parser(
+        "list", help="list the systems, their kind and what they show"
+    )
+    listing.add_argument(
+        "--data",
+        metavar="DIR",
+        help="also say whether each measured benchmark's files are in DIR "
+        "(default: the data home, $SKHYBRID_DATA or ~/skhybrid_data)",
+    )
     return parser
 
 
@@ -225,14 +238,33 @@ DASK_REQUIREMENTS = {
 }
 
 
-def _list(out):
-    from skhybrid import experiments
+def _data_status(name, data):
+    """Where a measured system's files are, or that they will be fetched."""
+    import os
+    from pathlib import Path
 
-    for name, system in experiments.SYSTEMS.items():
-        splits = ", ".join(system.split_descriptions())
-        out.write(f"{name:<16} {system.title} (section {system.section}; {splits})\n")
-    for name, system in experiments.MEASURED_SYSTEMS.items():
-        out.write(f"{name:<16} {system.title} (measured: --data DIR, or fetched)\n")
+    from skhybrid.experiments._catalog import DATA_FILES
+
+    folder, files = DATA_FILES[name]
+    if data is not None:
+        places = [Path(data), Path(data) / folder]
+    else:
+        home = os.environ.get("SKHYBRID_DATA", Path("~") / "skhybrid_data")
+        places = [Path(home).expanduser() / folder]
+    for place in places:
+        if all((place / f).is_file() for f in files):
+            return f"data present in {place}"
+    if data is not None:
+        return f"data missing in {data}"
+    return "data not yet fetched (downloaded on the first run)"
+
+
+def _list(out, data=None):
+    from skhybrid.experiments._catalog import CATALOG
+
+    for name, (kind, title, shows) in CATALOG.items():
+        extra = f"; {_data_status(name, data)}" if kind == "measured" else ""
+        out.write(f"{name:<16} {kind:<9} {title} ({shows}{extra})\n")
 
 
 def _error(message):
@@ -344,7 +376,7 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     if args.command == "list":
-        _list(sys.stdout)
+        _list(sys.stdout, args.data)
         return 0
 
     needed = dict(RUN_REQUIREMENTS)

@@ -440,10 +440,12 @@ def _run(args, argv, names, command, folder):
         lambda name: _settings(args.quick, args.seed, args.noise_type, _system(name)),
     )
     start = time.perf_counter()
+    started = False  # run.json is this run's only once start() has written it
     try:
         n_finished = folder.start(
             identity, command, overwrite=args.overwrite, resume=args.resume
         )
+        started = True
         if n_finished:
             sys.stdout.write(
                 f"resuming: {n_finished} of {n_models} models already finished in "
@@ -456,6 +458,7 @@ def _run(args, argv, names, command, folder):
                 _system(args.system).load(args.data, quick=args.quick)
             except (ValueError, OSError) as exc:
                 _error(str(exc))
+                folder.mark("failed", str(exc))
                 return 2
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
@@ -466,6 +469,7 @@ def _run(args, argv, names, command, folder):
                     client = stack.enter_context(_dask_backend(args.dask, n_workers))
                 except _DaskError as exc:
                     _error(str(exc))
+                    folder.mark("failed", str(exc))
                     return 2
                 address = client.scheduler.address
                 sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
@@ -474,19 +478,26 @@ def _run(args, argv, names, command, folder):
                 results = _fit_all(args, names, folder, n_jobs=n_jobs)
             except FileNotFoundError as exc:  # a measured benchmark's files
                 _error(str(exc))
+                folder.mark("failed", str(exc))
                 return 2
+        # One wall time: the report's and the console's are the same number.
         wall = time.perf_counter() - start
         paths = write_report(results, folder.path, command=command, wall_time=wall)
         folder.complete()
     except KeyboardInterrupt:
         done = sum(len(folder.finished(name)) for name in names)
+        if started:
+            folder.mark("interrupted", f"Ctrl-C after {done} of {n_models} models")
         sys.stderr.write(
             f"\nskhybrid: interrupted: {done} of {n_models} models are finished and "
             f"kept in {folder.path}; resume with: {_resume_command(argv)}\n"
         )
         return 130
-    total = time.perf_counter() - start
-    sys.stdout.write(f"wrote {paths['html']} ({total:.1f} s)\n")
+    except Exception as exc:
+        if started:
+            folder.mark("failed", f"{type(exc).__name__}: {exc}")
+        raise
+    sys.stdout.write(f"wrote {paths['html']} ({wall:.1f} s)\n")
     if args.quick and args.system not in MEASURED_SYSTEMS:
         sys.stdout.write(
             "  --quick trains on small data for a few epochs: the paper's claims "

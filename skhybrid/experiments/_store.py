@@ -295,8 +295,27 @@ class RunFolder:
 
     def complete(self):
         """Mark the run finished (after its report is written)."""
+        self.mark("complete")
+
+    def mark(self, status, reason=None):
+        """Record how the run ended in ``run.json``.
+
+        Parameters
+        ----------
+        status : {"complete", "interrupted", "failed"}
+            ``"interrupted"``: a Ctrl-C stopped it (finished models are kept
+            and resumed); ``"failed"``: an error stopped it.
+        reason : str or None, default=None
+            What stopped it, recorded as ``"reason"``.
+        """
         manifest = self.read_manifest() or {}
-        manifest["status"] = "complete"
+        if manifest.get("status") == "unreadable":
+            return
+        manifest["status"] = status
+        if reason is not None:
+            manifest["reason"] = reason
+        else:
+            manifest.pop("reason", None)
         self.write_manifest(manifest)
 
     def clear(self):

@@ -90,3 +90,20 @@ def test_a_corrupt_file_is_one_line_and_exit_2_before_training(case, tmp_path, c
     assert message in err and filename in err
     # Nothing trained: no model and no report in the run folder.
     assert not list(out.rglob("*.joblib")) and not (out / "report.html").exists()
+
+
+def test_a_failed_run_says_so_in_run_json(tmp_path):
+    import json
+
+    data = _copy_with(
+        tmp_path,
+        "cascaded_tanks",
+        "dataBenchmark.mat",
+        lambda v: v.update(Ts=np.array([[0.0]])),
+    )
+    out = tmp_path / "out"
+    argv = ["run", "cascaded-tanks", "--data", str(data), "--out", str(out)]
+    assert main([*argv, "--quick", "--no-progress"]) == 2
+    manifest = json.loads((out / "run.json").read_text())
+    assert manifest["status"] == "failed"
+    assert "'Ts' must be a positive finite sample period" in manifest["reason"]

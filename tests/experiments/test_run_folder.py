@@ -9,6 +9,7 @@ the real quick run.
 import csv
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -162,6 +163,9 @@ def test_ctrl_c_in_a_network_stops_keeps_finished_and_resumes_to_same_table(
     assert _finished(out) == ["linear", "physics (refit)"]  # not dense, nor later
     assert not (out / "results.csv").exists()
     assert not (out / ".lock").exists()
+    manifest = json.loads((out / "run.json").read_text())
+    assert manifest["status"] == "interrupted"
+    assert manifest["reason"] == "Ctrl-C after 2 of 4 models"
     record = json.loads((out / "models" / "pendulum" / "linear.json").read_text())
     assert {r["split"] for r in record["scores"]} == {"interpolation", "extrapolation"}
     assert (out / "models" / "pendulum" / "linear.joblib").is_file()
@@ -173,6 +177,11 @@ def test_ctrl_c_in_a_network_stops_keeps_finished_and_resumes_to_same_table(
 
     assert _run(tmp_path / "uninterrupted") == 0
     assert _table(out) == _table(tmp_path / "uninterrupted")
+    # One wall time: the console prints the number the report records.
+    console = re.search(r"\(([0-9.]+) s\)", capsys.readouterr().out).group(1)
+    results = json.loads((tmp_path / "uninterrupted" / "results.json").read_text())
+    assert f"{results['environment']['wall_time_s']:.1f}" == console
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
 
 
 def test_same_command_again_carries_on_an_unfinished_run(tmp_path, capsys, tiny_zoo):

@@ -501,7 +501,7 @@ def _run(args, argv, names, command, folder):
     if args.quick and args.system not in MEASURED_SYSTEMS:
         sys.stdout.write(
             "  --quick trains on small data for a few epochs: the paper's claims "
-            "below are judged on the full run\n"
+            "are not evaluated on it (they are judged on the full run)\n"
         )
     for result in results:
         if getattr(result.system, "measured", False):
@@ -510,7 +510,9 @@ def _run(args, argv, names, command, folder):
                 f"estimation record: {result.selected_model()}\n"
             )
         for claim in check_claims(result):
-            word = "holds" if claim["passed"] else "FAILS"
+            word = {True: "holds", False: "FAILS", None: "not evaluated"}[
+                claim["passed"]
+            ]
             sys.stdout.write(f"  [{word}] {claim['claim']}: {claim['detail']}\n")
     return 0
 

@@ -56,7 +56,7 @@ def _figures(result, out_dir):
         disp = ResidualACFDisplay.from_predictions(
             result.splits[split].y,
             result.predictions[split][model],
-            lags=max(40, result.settings.lags),
+            lags=result.settings.lags,  # the lags of the whiteness table too
             name=model,
             output_names=result.target_names,
             ax=fig.subplots(1, residual.shape[1], squeeze=False),
@@ -140,6 +140,18 @@ def _params_rows(result):
         for name, p in params.items():
             value, std = np.asarray(p["value"]), p["std"]
             std = None if std is None else np.asarray(std)
+            if p.get("fixed"):
+                text = (
+                    f"{float(value):.6g}"
+                    if value.ndim == 0
+                    else np.array2string(
+                        value, formatter={"float_kind": "{:.4g}".format}
+                    )
+                )
+                rows.append(
+                    {"model": model, "parameter": name, "value": text, "std": "fixed"}
+                )
+                continue
             if value.ndim == 0:
                 text = f"{float(value):.6g}"
                 err = "" if std is None else f"{float(std):.3g}"
@@ -160,7 +172,7 @@ table{border-collapse:collapse;margin:0.5em 0 1.5em;font-size:0.85em}
 td,th{border:1px solid #ccc;padding:3px 7px;text-align:right}
 th{background:#eee} td:first-child,th:first-child{text-align:left}
 img{max-width:100%;border:1px solid #ddd;margin:0.3em 0 1em}
-.pass{color:#176617;font-weight:bold}.fail{color:#a31515;font-weight:bold}
+.pass{color:#176617;font-weight:bold}.fail{color:#a31515;font-weight:bold}.na{color:#666;font-style:italic}
 code{background:#f4f4f4;padding:1px 4px}
 """
 
@@ -189,7 +201,11 @@ def _section(result, figures, claims):
     if claims:
         parts.append("<h3>The paper's claims on this run</h3><ul>")
         for c in claims:
-            cls, word = ("pass", "holds") if c["passed"] else ("fail", "fails")
+            cls, word = {
+                True: ("pass", "holds"),
+                False: ("fail", "fails"),
+                None: ("na", "not evaluated"),
+            }[c["passed"]]
             parts.append(
                 f"<li><span class='{cls}'>{word}</span>: {html.escape(c['claim'])}"
                 f" ({html.escape(c['detail'])})</li>"

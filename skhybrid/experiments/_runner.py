@@ -122,10 +122,18 @@ def _physical_params(estimator):
         params = getattr(est, "params_", None)
         if isinstance(params, dict):
             std = getattr(est, "params_std_", None) or {}
+            # A fixed parameter was not fitted: it has no standard error.
+            fixed = set(getattr(est, "fixed", None) or ())
+            free = getattr(est, "free_params_", None)
+            if free is not None:
+                fixed |= set(params) - set(free)
             return {
                 name: {
                     "value": np.asarray(value).tolist(),
-                    "std": None if name not in std else np.asarray(std[name]).tolist(),
+                    "std": None
+                    if name not in std or name in fixed
+                    else np.asarray(std[name]).tolist(),
+                    "fixed": name in fixed,
                 }
                 for name, value in params.items()
             }

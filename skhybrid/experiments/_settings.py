@@ -83,6 +83,14 @@ class ExperimentSettings:
             seed=seed,
         )
 
+    @property
+    def is_full(self):
+        """Whether these are the full run's settings (any seed and noise type)."""
+        from dataclasses import replace
+
+        full = replace(type(self).full(), noise_type=None)
+        return replace(self, seed=0, noise_type=None) == full
+
     def with_seed(self, seed):
         """The same settings with another seed.
 

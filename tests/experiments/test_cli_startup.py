@@ -65,3 +65,28 @@ def test_list_shows_every_system_with_its_kind_and_data(tmp_path, capsys, monkey
     assert "data missing in" in by_name["silverbox"]
     assert main(["list"]) == 0  # the data home: nothing fetched there yet
     assert "data not yet fetched" in capsys.readouterr().out
+
+
+def test_settings_know_whether_they_are_the_full_run():
+    from skhybrid.experiments import ExperimentSettings
+
+    assert ExperimentSettings.full(seed=3).is_full
+    assert not ExperimentSettings.quick(seed=0).is_full
+
+
+def test_claims_are_judged_on_full_settings_only(monkeypatch):
+    from types import SimpleNamespace
+
+    from skhybrid.experiments import ExperimentSettings, _claims
+
+    def one_claim(result):
+        return [{"claim": "c", "passed": False, "detail": "x = 2"}]
+
+    monkeypatch.setitem(_claims._CHECKS, "pendulum", one_claim)
+    system = SimpleNamespace(name="pendulum")
+    full = SimpleNamespace(system=system, settings=ExperimentSettings.full())
+    quick = SimpleNamespace(system=system, settings=ExperimentSettings.quick())
+    assert _claims.check_claims(full)[0]["passed"] is False
+    claim = _claims.check_claims(quick)[0]
+    assert claim["passed"] is None
+    assert claim["detail"] == "not evaluated on quick settings; x = 2"

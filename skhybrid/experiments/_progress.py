@@ -25,6 +25,7 @@ __all__ = [
     "FileSink",
     "ProgressBars",
     "attach_epoch_logger",
+    "epoch_budget",
 ]
 
 
@@ -129,8 +130,45 @@ def attach_epoch_logger(estimator, sink, name):
     return estimator
 
 
+def epoch_budget(estimator):
+    """The most epochs the networks inside ``estimator`` can run (0 for none).
+
+    Each network counts ``max_epochs``, twice with ``mse_pretraining`` (the
+    fine-tuning phase may run as many again); early stopping usually ends
+    sooner, so this is the epoch bar's upper bound.
+
+    Parameters
+    ----------
+    estimator : estimator
+        A network, or a composite holding networks.
+
+    Returns
+    -------
+    n_epochs : int
+        The upper bound.
+    """
+    params = estimator.get_params(deep=True)
+    total = 0
+    for key, value in params.items():
+        if key != "max_epochs" and not key.endswith("__max_epochs"):
+            continue
+        prefix = key[: -len("max_epochs")]
+        if f"{prefix}callbacks" not in params:  # not a network (a least-squares fit)
+            continue
+        twice = (
+            params.get(f"{prefix}mse_pretraining", False)
+            and str(params.get(f"{prefix}objective", "mse")) != "mse"
+        )
+        total += int(value) * (2 if twice else 1)
+    return total
+
+
 class ProgressBars:
-    """Two tqdm bars on standard error: fitted models, and epochs of all networks.
+    """Progress on standard error: fitted models, and epochs of all networks.
+
+    On a terminal, two tqdm bars (models of the run's total, and epochs of the
+    networks' largest possible total where it is known). Elsewhere (a log file,
+    CI), one line per finished model instead of bar refreshes.
 
     Parameters
     ----------
@@ -143,11 +181,36 @@ class ProgressBars:
         temporary file.
     n_done : int, default=0
         Models already finished (a resumed run).
+    n_epochs : int or None, default=None
+        Most epochs the run's networks can take (see :func:`epoch_budget`);
+        None where it is not known before the fits.
+    stream : file-like or None, default=None
+        Where progress goes; None is ``sys.stderr``.
     """
 
-    def __init__(self, n_models, description, *, client=None, n_done=0):
+    #: No rate: "?model/s" says nothing while the first model trains.
+    MODELS_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}]{postfix}"
+
+    def __init__(
+        self,
+        n_models,
+        description,
+        *,
+        client=None,
+        n_done=0,
+        n_epochs=None,
+        stream=None,
+    ):
+        import sys
+
         from tqdm.auto import tqdm
 
+        self.stream = sys.stderr if stream is None else stream
+        self.description = description
+        self.n_models = n_models
+        self.n_done = n_done
+        isatty = getattr(self.stream, "isatty", None)
+        self.interactive = bool(isatty and isatty())
         self._dir = None
         if client is None:
             self._dir = tempfile.TemporaryDirectory(prefix="skhybrid-progress-")
@@ -157,11 +220,27 @@ class ProgressBars:
         else:
             self.sink = DaskEventSink(f"skhybrid-epochs-{uuid.uuid4().hex}")
             self.sink.subscribe(client)
-        self.models = tqdm(
-            total=n_models, initial=n_done, desc=f"{description}: models", unit="model"
-        )
-        self.epochs = tqdm(desc=f"{description}: epochs", unit="epoch", position=1)
+        self.models = self.epochs = None
         self._stop = threading.Event()
+        self._thread = None
+        if not self.interactive:
+            return
+        self.models = tqdm(
+            total=n_models,
+            initial=n_done,
+            desc=f"{description}: models",
+            unit="model",
+            bar_format=self.MODELS_FORMAT,
+            file=self.stream,
+        )
+        self.epochs = tqdm(
+            total=n_epochs or None,
+            desc=f"{description}: epochs"
+            + (" (at most, early stopping ends sooner)" if n_epochs else ""),
+            unit="epoch",
+            position=1,
+            file=self.stream,
+        )
         self._thread = threading.Thread(target=self._watch, daemon=True)
         self._thread.start()
 
@@ -171,15 +250,33 @@ class ProgressBars:
 
     def model_done(self, name, fit_time, n_epochs):
         epochs = "" if n_epochs is None else f", {n_epochs} epochs"
+        self.n_done += 1
+        if self.models is None:
+            self.stream.write(
+                f"{self.description}: {self.n_done}/{self.n_models} models: "
+                f"{name} ({fit_time:.1f} s{epochs})\n"
+            )
+            self.stream.flush()
+            return
         self.models.set_postfix_str(f"{name} ({fit_time:.1f} s{epochs})")
         self.models.update()
 
     def close(self):
+        """Stop counting and close the bars, leaving the terminal clean."""
         self._stop.set()
-        self._thread.join()
-        self.epochs.update(self.sink.count() - self.epochs.n)
-        self.epochs.close()
-        self.models.close()
+        if self._thread is not None:
+            self._thread.join()
+        if self.epochs is not None:
+            self.epochs.update(self.sink.count() - self.epochs.n)
+            if self.epochs.total:  # early stopping ended sooner: the bar is done
+                self.epochs.total = self.epochs.n
+                self.epochs.refresh()
+            self.epochs.close()
+            self.models.close()
+            # Leave the cursor below both bars, so that what follows (an
+            # interrupt's message) is not printed over them.
+            self.stream.write("\n")
+            self.stream.flush()
         if isinstance(self.sink, DaskEventSink):
             self.sink.unsubscribe()
         if self._dir is not None:

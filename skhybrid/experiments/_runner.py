@@ -12,7 +12,11 @@ from joblib import Parallel, delayed, parallel_config
 from joblib.parallel import get_active_backend
 
 from skhybrid.diagnostics import ljung_box_test, rmse_db
-from skhybrid.experiments._progress import ProgressBars, attach_epoch_logger
+from skhybrid.experiments._progress import (
+    ProgressBars,
+    attach_epoch_logger,
+    epoch_budget,
+)
 from skhybrid.experiments._settings import ExperimentSettings
 from skhybrid.experiments._systems import SYSTEMS
 from skhybrid.experiments._zoo import model_zoo
@@ -458,7 +462,12 @@ def run_experiment(
     n_threads = max(1, cores // max(workers, 1))
     bars = None
     if progress:
-        bars = ProgressBars(len(zoo), system.name, client=client, n_done=len(done))
+        budget = None
+        if not measured:  # a measured model's networks are built in its job
+            budget = sum(epoch_budget(zoo[name]) for name in todo) or None
+        bars = ProgressBars(
+            len(zoo), system.name, client=client, n_done=len(done), n_epochs=budget
+        )
         if not measured:  # a measured model's networks are built in its job
             for name in todo:
                 attach_epoch_logger(zoo[name], bars.sink, name)

@@ -58,7 +58,19 @@ numpydoc_class_members_toctree = False
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"skhybrid {release}"
-html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+    # Gallery examples hold long code lines: no page table of contents there,
+    # so the code gets the column's full width (with _static/skhybrid.css).
+    "secondary_sidebar_items": {
+        "*": ["page-toc"],
+        "generated/*": ["page-toc"],
+        "auto_examples/*": [],
+    },
+}
+html_static_path = ["_static"]
+html_css_files = ["skhybrid.css"]
 
 # The measured-data example reads the shared benchmark folder when it is there.
 os.environ.setdefault("SKHYBRID_DATA", str(HERE.parent.parent / "shared" / "data"))

@@ -73,3 +73,13 @@ def test_pages_render_with_every_image(site, page, rendered_dom):
     assert 'data-missing="0"' in dom, dom[-2000:]
     if page != "index.html":
         assert 'data-images="0"' not in dom
+
+
+def test_gallery_code_gets_the_full_column(site):
+    """Issue 26: gallery code lines were cut off beside the page's table of contents."""
+    page = (site / "auto_examples" / "plot_compositions.html").read_text()
+    assert "skhybrid.css" in page
+    assert "page-toc" not in page  # no table of contents beside the code
+    guide = (site / "hybrid.html").read_text()
+    assert "page-toc" in guide  # guides keep their table of contents
+    assert "overflow-x: auto" in (site / "_static" / "skhybrid.css").read_text()

@@ -1,0 +1,92 @@
+"""Rerun the measured benchmarks and compare with the recorded reference figures.
+
+The release checklist's check that every measured figure of docs/experiments.md
+follows from its documented command: for each benchmark and seed 0, 1, 2 it runs
+``skhybrid run SYSTEM --data DIR --seed S --out RUNS/SYSTEM-S`` (skipping a run
+folder that already holds a finished run), then compares the test RMSE of the
+model chosen on validation with the recorded figures below: the same model must
+be chosen, and the new mean over the seeds must lie within the recorded range
+widened by half its width (or by 2 % where the figure does not depend on the
+seed).
+
+Run: ``python benchmarks/check_measured_reference.py --data ../shared/data``
+(about 10 minutes on 2 cores); ``--runs DIR`` keeps the run folders.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+#: docs/experiments.md, "Reference results on the common pipeline (seeds 0-2)":
+#: system -> (chosen model, {split: (mean, min, max)}), official units.
+REFERENCE = {
+    "cascaded-tanks": ("physics + linear", {"test": (0.2409, 0.2409, 0.2409)}),
+    "emps": ("physics", {"test": (5.413, 5.413, 5.413)}),
+    "silverbox": (
+        "physics + dense",
+        {
+            "test_multisine": (0.2314, 0.2258, 0.2351),
+            "test_arrow_full": (0.3004, 0.2944, 0.3037),
+            "test_arrow_no_extrapolation": (0.2319, 0.2295, 0.2343),
+        },
+    ),
+}
+SEEDS = (0, 1, 2)
+
+
+def run(system, seed, data, runs):
+    out = runs / f"{system}-{seed}"
+    manifest = out / "run.json"
+    if manifest.is_file() and json.loads(manifest.read_text()).get("status") == (
+        "complete"
+    ):
+        return out
+    argv = [sys.executable, "-m", "skhybrid", "run", system, "--data", str(data)]
+    argv += ["--seed", str(seed), "--out", str(out), "--no-progress", "--overwrite"]
+    subprocess.run(argv, check=True)
+    return out
+
+
+def chosen_scores(out, system):
+    results = json.loads((out / "results.json").read_text())["systems"][system]
+    chosen = results["selected_model"]
+    return chosen, {
+        split: scores[chosen] for split, scores in results["test_rmse"].items()
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", required=True, help="the benchmark files")
+    parser.add_argument("--runs", default="reference-runs", help="run folders")
+    args = parser.parse_args()
+    runs = Path(args.runs)
+    failures = 0
+    for system, (model, splits) in REFERENCE.items():
+        chosen, scores = set(), {split: [] for split in splits}
+        for seed in SEEDS:
+            picked, rmse = chosen_scores(run(system, seed, args.data, runs), system)
+            chosen.add(picked)
+            for split in splits:
+                scores[split].append(rmse[split])
+        if chosen != {model}:
+            failures += 1
+            print(f"FAIL {system}: chosen {sorted(chosen)}, recorded {model!r}")
+        for split, (mean, low, high) in splits.items():
+            new = sum(scores[split]) / len(scores[split])
+            slack = max((high - low) / 2, 0.02 * mean)
+            ok = low - slack <= new <= high + slack
+            failures += not ok
+            print(
+                f"{'ok  ' if ok else 'FAIL'} {system} {split}: {model} "
+                f"{new:.4g} (seeds {', '.join(f'{s:.4g}' for s in scores[split])}); "
+                f"recorded {mean:.4g} ({low:.4g}-{high:.4g})"
+            )
+    print("all reference figures reproduced" if not failures else f"{failures} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -80,3 +80,30 @@ def test_wiener_hammerstein_refuses_a_sample_rate_that_is_not_positive(fs, tmp_p
     _write(tmp_path / "wiener_hammerstein", "WienerHammerBenchMark.mat", v)
     with pytest.raises(ValueError, match=r"'fs' must be a positive finite sample rate"):
         load_wiener_hammerstein(tmp_path)
+
+
+@pytest.mark.parametrize(
+    "case, match",
+    [
+        ("missing", r"'yBenchMark' is missing"),
+        ("nan", r"'uBenchMark' must hold finite values; got uBenchMark\[7\]=nan"),
+        ("short", r"has 1000 samples; a record needs at least"),
+        ("truncated", r"is not a readable MATLAB \.mat file"),
+    ],
+)
+def test_wiener_hammerstein_refuses_a_corrupt_file(case, match, tmp_path):
+    n = 1000 if case == "short" else 188000
+    v = {"uBenchMark": np.zeros((n, 1)), "yBenchMark": np.zeros((n, 1))}
+    v["fs"] = np.array([[51200.0]])
+    if case == "missing":
+        del v["yBenchMark"]
+    if case == "nan":
+        v["uBenchMark"][7] = np.nan
+    folder = tmp_path / "wiener_hammerstein"
+    _write(folder, "WienerHammerBenchMark.mat", v)
+    if case == "truncated":
+        path = folder / "WienerHammerBenchMark.mat"
+        path.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(ValueError, match=match) as info:
+        load_wiener_hammerstein(tmp_path)
+    assert "WienerHammerBenchMark.mat" in str(info.value)

@@ -198,6 +198,10 @@ class DomainModel(
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         _, spec = self._set_up(X, y)
+        return self._at_initial_params(spec)
+
+    def _at_initial_params(self, spec):
+        """Publish ``spec``'s initial values as an unfitted (zero-iteration) fit."""
         self.result_ = None
         self.params_ = spec.to_dict(spec.x0)
         self.params_std_ = spec.to_dict(np.full(spec.n_free, np.nan), fixed_value=0.0)

@@ -642,11 +642,7 @@ default=None
         self._spec = spec
         if observed is not None:
             self.n_outputs_ = len(observed)
-        self.result_ = None
-        self.params_ = spec.to_dict(spec.x0)
-        self.params_std_ = spec.to_dict(np.full(spec.n_free, np.nan), fixed_value=0.0)
-        self.params_cov_ = np.full((spec.n_free, spec.n_free), np.nan)
-        return self
+        return self._at_initial_params(spec)
 
     def observe(self, x, params=None):
         """The outputs of states ``x``: ``x[:, observed]`` or ``output(x)``.

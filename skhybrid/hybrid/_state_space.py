@@ -491,14 +491,6 @@ class StateSpaceHybridRegressor(
             dt=physics.dt,
         )
 
-    def _rollout(self, Yw, Uw, U_future, params=None, prior=None):
-        """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
-
-        ``U_future[:, 0]`` acts from the window's last sample; the fitted
-        module's physical parameters are used (``params`` is ignored).
-        """
-        return self.module_.rollout(Yw, Uw, U_future, prior)
-
     # -- training ------------------------------------------------------------------
     def _train(self, module, windows_train, windows_valid, x_targets):
         """Joint training on sub-sequences ``(Y (n, k+T, p), U (n, k+T, m), prior)``.
@@ -812,12 +804,12 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         Ys, Us = self._split(X, self.n_outputs_)
         prior = self._prior(Ys, Us)
         with torch.no_grad():
-            out = self._rollout(
+            out = self.module_.rollout(
                 torch.as_tensor(Ys),
                 torch.as_tensor(Us[:, : k - 1]),
                 torch.as_tensor(Us[:, k - 1 :]),
-                self._params_t,
                 None if prior is None else torch.as_tensor(prior),
+                params=self._params_t,
             )[:, 0].numpy()
         return out[:, 0] if getattr(self, "_y_1d", False) else out
 
@@ -917,12 +909,12 @@ n_init, n_outputs) or list of 2-D arrays
                 prior = self._prior(Yw, U[:, s - k : s])
                 u = torch.as_tensor(U)
                 with torch.no_grad():
-                    sim = self._rollout(
+                    sim = self.module_.rollout(
                         torch.as_tensor(Yw),
                         u[:, s - k : s - 1],
                         u[:, s - 1 : n - 1],
-                        self._params_t,
                         None if prior is None else torch.as_tensor(prior),
+                        params=self._params_t,
                     ).numpy()
             finite = np.all(np.isfinite(sim), axis=2)
             if not np.all(finite):

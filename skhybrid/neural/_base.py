@@ -13,7 +13,6 @@ from skhybrid.neural.engine import (
     check_device,
     check_time_ordered_rows,
     record_training,
-    rng_devices,
     train_module,
     training_constraints,
     training_parameters_doc,
@@ -380,9 +379,6 @@ class BaseNeuralRegressor(
     # -- helpers -------------------------------------------------------------------
     def _check_device(self):
         check_device(self.device)
-
-    def _rng_devices(self):
-        return rng_devices(self.device)
 
     def _to_tensor(self, array):
         return torch.as_tensor(

@@ -9,12 +9,18 @@ stopping starts from the pretrained weights as a candidate
 validation objective than the MSE solution.
 """
 
+import math
 from copy import deepcopy
 
 from skorch.callbacks import EarlyStopping
 from skorch.dataset import Dataset
 
-__all__ = ["CandidateEarlyStopping", "finetune", "validation_loss"]
+__all__ = [
+    "CandidateEarlyStopping",
+    "finetune",
+    "propose_candidate",
+    "validation_loss",
+]
 
 
 class CandidateEarlyStopping(EarlyStopping):
@@ -63,6 +69,25 @@ def validation_loss(net, X, y):
     return total / count
 
 
+def propose_candidate(net, X, y, *, epoch):
+    """Make the module's current weights early stopping's first candidate.
+
+    Parameters
+    ----------
+    net : skorch.NeuralNet
+        An initialised net whose callbacks include ``"early_stopping"``, a
+        :class:`CandidateEarlyStopping`.
+    X, y : torch.Tensor
+        Where the weights are scored (the monitored data).
+    epoch : int
+        The epoch recorded as the candidate's (0: the starting weights).
+    """
+    score = validation_loss(net, X, y)
+    if score is not None and math.isfinite(score):
+        stopper = dict(net.callbacks_)["early_stopping"]
+        stopper.candidate_ = (score, epoch, deepcopy(net.module_.state_dict()))
+
+
 def finetune(net, X, y, objective, segment_length, *, sequences=False, valid=None):
     """Continue a net trained on the MSE with ``objective``.
 
@@ -97,13 +122,9 @@ def finetune(net, X, y, objective, segment_length, *, sequences=False, valid=Non
     if not sequences:
         net.iterator_train__segment_length = segment_length
         net.iterator_train__contiguous = segment_length is None
-    stopper = dict(net.callbacks_)["early_stopping"]
     if valid is not None:
-        stopper.candidate_ = (
-            validation_loss(net, *valid),
-            stopper.best_epoch_,
-            deepcopy(net.module_.state_dict()),
-        )
+        stopper = dict(net.callbacks_)["early_stopping"]
+        propose_candidate(net, *valid, epoch=stopper.best_epoch_)
     # The batches of this phase end in segments of consecutive rows; batch
     # normalisation would take its statistics from them too, and that alone
     # (Ljung-Box weight 0) made the DC motor's validation loss 24 % worse after

@@ -13,7 +13,6 @@ and shared by every estimator that trains a network.
 """
 
 import warnings
-from copy import deepcopy
 from dataclasses import dataclass
 from numbers import Integral, Real
 from types import SimpleNamespace
@@ -33,7 +32,7 @@ from skhybrid.neural._modules import ObjectiveLoss, SequenceObjectiveLoss
 from skhybrid.neural._pretraining import (
     CandidateEarlyStopping,
     finetune,
-    validation_loss,
+    propose_candidate,
 )
 from skhybrid.utils._sklearn_compat import Interval, StrOptions
 
@@ -680,7 +679,7 @@ def train_module(
         )
         if start_as_candidate:
             net.initialize()
-            _seed_candidate(net, X, y, valid)
+            propose_candidate(net, *(valid or (X, y)), epoch=0)
             # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
             # stopping) and restores the best weights on the way out.
             net.partial_fit(X, y, epochs=p.max_epochs)
@@ -697,14 +696,3 @@ def train_module(
                 valid=valid,
             )
     return net
-
-
-def _seed_candidate(net, X, y, valid):
-    """Make the module's starting weights early stopping's first candidate."""
-    stopper = dict(net.callbacks_)["early_stopping"]
-    if valid is not None:
-        score = validation_loss(net, *valid)
-    else:
-        score = validation_loss(net, X, y)
-    if score is not None and np.isfinite(score):
-        stopper.candidate_ = (score, 0, deepcopy(net.module_.state_dict()))

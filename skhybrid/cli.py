@@ -23,6 +23,11 @@ report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox`
 does the same for a measured benchmark, scored by its official protocol beside
 the published figures: its files come from --data DIR, or are downloaded once
 into the data home ($SKHYBRID_DATA, else ~/skhybrid_data) and checked.
+`skhybrid run --system module:object` runs your own machine's SystemSpec the
+same way. A measured run chooses every model on validation tails of the
+estimation records at each seed (--seeds, default 0 1 2), writes the sealed
+selection (selection.json, with its SHA-256) and only then reads the test
+records.
 """
 
 EPILOG = """\
@@ -36,6 +41,8 @@ examples:
   skhybrid run emps --data ../shared/data --quick
                                          a measured benchmark (files in --data;
                                          without it, downloaded once)
+  skhybrid run --system my_machine:spec --out runs/mine
+                                         your own machine (a SystemSpec)
 
 Every model's scores and fitted model are written to --out as soon as it
 finishes; after a Ctrl-C, the same command (or with --resume) carries on.
@@ -115,11 +122,20 @@ def _build_parser():
     run.error = parser.error  # one-line errors for the subcommand too
     run.add_argument(
         "system",
+        nargs="?",
         choices=[*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS],
         metavar="SYSTEM",
         help="one of: "
         + ", ".join([*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS])
         + " (the last three are measured benchmarks: --data, or downloaded)",
+    )
+    run.add_argument(
+        "--system",
+        dest="spec",
+        metavar="MODULE:OBJECT",
+        help="your own measured system: a skhybrid.experiments.SystemSpec (or a "
+        "function of no argument returning one) importable as MODULE:OBJECT "
+        "(the current folder is searched first)",
     )
     run.add_argument(
         "--data",
@@ -151,9 +167,19 @@ def _build_parser():
     run.add_argument(
         "--seed",
         type=_seed,
-        default=0,
+        default=None,
         metavar="S",
-        help="seed of data and models, 0 to 2**32 - 1 (default: 0)",
+        help="seed of data and models, 0 to 2**32 - 1 (default: 0); a measured "
+        "run with --seed S selects at that one seed",
+    )
+    run.add_argument(
+        "--seeds",
+        type=_seed,
+        nargs="+",
+        default=None,
+        metavar="S",
+        help="a measured run's seeds, each a full selection; the report gives "
+        "the mean and spread over them (default: 0 1 2)",
     )
     run.add_argument(
         "--noise-type",
@@ -290,17 +316,12 @@ def _system(name):
 
 
 def _n_models(names, settings_of):
-    """Models in the run: the zoo of each system."""
+    """Models in the run of the paper's systems: the zoo of each."""
     from skhybrid import experiments
 
-    total = 0
-    for name in names:
-        system = _system(name)
-        if getattr(system, "measured", False):
-            total += len(system.model_zoo(settings_of(name)))
-        else:
-            total += len(experiments.model_zoo(system, settings_of(name)))
-    return total
+    return sum(
+        len(experiments.model_zoo(_system(name), settings_of(name))) for name in names
+    )
 
 
 def _identity(names, quick, seed, noise_type=None):
@@ -315,6 +336,43 @@ def _identity(names, quick, seed, noise_type=None):
         "seed": seed,
         "settings": settings.to_dict(),
     }
+
+
+class _SpecError(Exception):
+    pass
+
+
+def _load_spec(text):
+    """The SystemSpec named ``module:object`` (the current folder searched first)."""
+    from skhybrid.experiments import SystemSpec
+
+    module_name, sep, attr = text.partition(":")
+    if not sep or not module_name or not attr:
+        raise _SpecError(
+            f"--system expects MODULE:OBJECT (a SystemSpec importable as "
+            f"module.object); got --system {text!r}"
+        )
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise _SpecError(
+            f"--system {text}: cannot import {module_name}: {exc}"
+        ) from None
+    obj = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise _SpecError(f"--system {text}: {module_name} has no {attr}")
+        obj = getattr(obj, part)
+    if callable(obj) and not isinstance(obj, SystemSpec):
+        obj = obj()
+    if not isinstance(obj, SystemSpec):
+        raise _SpecError(
+            f"--system {text} is a {type(obj).__name__}, not a "
+            "skhybrid.experiments.SystemSpec (or a function returning one)"
+        )
+    return obj
 
 
 def _resume_command(argv):
@@ -370,6 +428,36 @@ class _DaskError(Exception):
     pass
 
 
+def _check_run_args(args):
+    """One line for arguments that do not fit together, or None."""
+    measured = args.spec is not None or args.system in MEASURED_SYSTEMS
+    if (args.system is None) == (args.spec is None):
+        return "give one system: SYSTEM, or --system MODULE:OBJECT for your own"
+    if measured and args.noise_type is not None:
+        name = args.system or args.spec
+        return (
+            f"--noise-type sets the simulators' noise; {name} is a measured "
+            "system: drop --noise-type"
+        )
+    if not measured and args.data is not None:
+        return (
+            f"--data names a measured benchmark's files; {args.system} is "
+            "simulated: drop --data, or run one of " + ", ".join(MEASURED_SYSTEMS)
+        )
+    if args.spec is not None and args.data is not None:
+        return (
+            "--data names a built-in benchmark's files; a --system spec holds its own"
+        )
+    if not measured and args.seeds is not None:
+        return (
+            f"--seeds sets a measured run's seeds; {args.system} is simulated: use "
+            "--seed S"
+        )
+    if args.seed is not None and args.seeds is not None:
+        return "give --seed S (one seed) or --seeds S [S ...], not both"
+    return None
+
+
 def main(argv=None):
     """Entry point of the ``skhybrid`` command; returns the exit status."""
     parser = _build_parser()
@@ -379,6 +467,10 @@ def main(argv=None):
         _list(sys.stdout, args.data)
         return 0
 
+    problem = _check_run_args(args)
+    if problem is not None:
+        _error(problem)
+        return 2
     needed = dict(RUN_REQUIREMENTS)
     if args.dask is not None:
         needed.update(DASK_REQUIREMENTS)
@@ -391,21 +483,6 @@ def main(argv=None):
 
     from skhybrid.experiments._store import RunFolder, RunFolderError
 
-    if args.system in MEASURED_SYSTEMS:
-        if args.noise_type is not None:
-            _error(
-                f"--noise-type sets the simulators' noise; {args.system} is a "
-                "measured benchmark: drop --noise-type"
-            )
-            return 2
-    elif args.data is not None:
-        _error(
-            f"--data names a measured benchmark's files; {args.system} is "
-            "simulated: drop --data, or run one of " + ", ".join(MEASURED_SYSTEMS)
-        )
-        return 2
-
-    names = list(SIMULATED_SYSTEMS) if args.system == "all" else [args.system]
     command = "skhybrid " + shlex.join(argv)
     folder = RunFolder(args.out)
     try:
@@ -418,8 +495,8 @@ def main(argv=None):
         sys.stderr.write("\nskhybrid: interrupted before training\n")
         return 130
     try:
-        return _run(args, argv, names, command, folder)
-    except RunFolderError as exc:
+        return _run(args, argv, command, folder)
+    except (RunFolderError, _SpecError) as exc:
         _error(str(exc))
         return 2
     except KeyboardInterrupt:
@@ -431,19 +508,92 @@ def main(argv=None):
         folder.lock.release()
 
 
-def _run(args, argv, names, command, folder):
+class _Plan:
+    """What a run fits: the paper's systems, or one measured system at its seeds."""
+
+    def __init__(self, args):
+        self.args = args
+        self.measured = args.spec is not None or args.system in MEASURED_SYSTEMS
+        if args.spec is not None:
+            from skhybrid.experiments._measured import MeasuredSystem
+
+            self.system = MeasuredSystem.from_spec(_load_spec(args.spec))
+        elif self.measured:
+            self.system = _system(args.system)
+        if self.measured:
+            from skhybrid.experiments._measured import DEFAULT_SEEDS, measured_identity
+
+            if args.seeds is not None:
+                self.seeds = list(args.seeds)
+            else:
+                self.seeds = list(DEFAULT_SEEDS) if args.seed is None else [args.seed]
+            if len(set(self.seeds)) != len(self.seeds):
+                raise _SpecError(f"--seeds must differ; got {self.seeds}")
+            self.names = [self.system.name]
+            self.identity = measured_identity(self.system, args.quick, self.seeds)
+            zoo = self.system.model_zoo(self.system.default_settings(args.quick, 0))
+            self.n_models = len(zoo) * len(self.seeds)
+        else:
+            seed = 0 if args.seed is None else args.seed
+            self.seed = seed
+            names = list(SIMULATED_SYSTEMS) if args.system == "all" else [args.system]
+            self.names = names
+            self.identity = _identity(names, args.quick, seed, args.noise_type)
+            self.n_models = _n_models(
+                names,
+                lambda name: _settings(
+                    args.quick, seed, args.noise_type, _system(name)
+                ),
+            )
+
+    def check_files(self):
+        """Load and check a measured system's estimation records (or raise)."""
+        if self.measured:
+            self.system.check_files(self.args.data, quick=self.args.quick)
+
+    def fit(self, folder, n_jobs):
+        args = self.args
+        if self.measured:
+            from skhybrid.experiments._sealed import run_seeds
+
+            return [
+                run_seeds(
+                    self.system,
+                    seeds=self.seeds,
+                    quick=args.quick,
+                    n_jobs=n_jobs,
+                    progress=not args.no_progress,
+                    folder=folder,
+                    data=args.data,
+                )
+            ]
+        from skhybrid import experiments
+
+        return [
+            experiments.run_experiment(
+                name,
+                settings=_settings(
+                    args.quick, self.seed, args.noise_type, _system(name)
+                ),
+                n_jobs=n_jobs,
+                progress=not args.no_progress,
+                folder=folder,
+                data=args.data,
+            )
+            for name in self.names
+        ]
+
+
+def _run(args, argv, command, folder):
     from skhybrid.experiments import check_claims, write_report
 
-    identity = _identity(names, args.quick, args.seed, args.noise_type)
-    n_models = _n_models(
-        names,
-        lambda name: _settings(args.quick, args.seed, args.noise_type, _system(name)),
-    )
+    plan = _Plan(args)
+    n_models = plan.n_models
     start = time.perf_counter()
     started = False  # run.json is this run's only once start() has written it
     try:
         n_finished = folder.start(
-            identity, command, overwrite=args.overwrite, resume=args.resume
+            plan.identity, command, overwrite=args.overwrite, resume=args.resume
         )
         started = True
         if n_finished:
@@ -451,15 +601,14 @@ def _run(args, argv, names, command, folder):
                 f"resuming: {n_finished} of {n_models} models already finished in "
                 f"{folder.path}\n"
             )
-        if args.system in MEASURED_SYSTEMS:
-            # The files are checked at the boundary, before any model trains:
-            # a corrupt or missing file is one line and exit 2.
-            try:
-                _system(args.system).load(args.data, quick=args.quick)
-            except (ValueError, OSError) as exc:
-                _error(str(exc))
-                folder.mark("failed", str(exc))
-                return 2
+        # A measured system's files are checked at the boundary, before any
+        # model trains: a corrupt or missing file is one line and exit 2.
+        try:
+            plan.check_files()
+        except (ValueError, OSError) as exc:
+            _error(str(exc))
+            folder.mark("failed", str(exc))
+            return 2
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
             if args.dask is not None:
@@ -475,7 +624,7 @@ def _run(args, argv, names, command, folder):
                 sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
                 n_jobs = -1  # every worker of the cluster
             try:
-                results = _fit_all(args, names, folder, n_jobs=n_jobs)
+                results = plan.fit(folder, n_jobs)
             except FileNotFoundError as exc:  # a measured benchmark's files
                 _error(str(exc))
                 folder.mark("failed", str(exc))
@@ -485,7 +634,7 @@ def _run(args, argv, names, command, folder):
         paths = write_report(results, folder.path, command=command, wall_time=wall)
         folder.complete()
     except KeyboardInterrupt:
-        done = sum(len(folder.finished(name)) for name in names)
+        done = folder.n_finished()
         if started:
             folder.mark("interrupted", f"Ctrl-C after {done} of {n_models} models")
         sys.stderr.write(
@@ -498,17 +647,15 @@ def _run(args, argv, names, command, folder):
             folder.mark("failed", f"{type(exc).__name__}: {exc}")
         raise
     sys.stdout.write(f"wrote {paths['html']} ({wall:.1f} s)\n")
-    if args.quick and args.system not in MEASURED_SYSTEMS:
+    if args.quick and not plan.measured:
         sys.stdout.write(
             "  --quick trains on small data for a few epochs: the paper's claims "
             "are not evaluated on it (they are judged on the full run)\n"
         )
     for result in results:
         if getattr(result.system, "measured", False):
-            sys.stdout.write(
-                f"  {result.system.name}: chosen on the validation tail of the "
-                f"estimation record: {result.selected_model()}\n"
-            )
+            _measured_lines(result)
+            continue
         for claim in check_claims(result):
             word = {True: "holds", False: "FAILS", None: "not evaluated"}[
                 claim["passed"]
@@ -517,20 +664,23 @@ def _run(args, argv, names, command, folder):
     return 0
 
 
-def _fit_all(args, names, folder, *, n_jobs):
-    from skhybrid import experiments
-
-    return [
-        experiments.run_experiment(
-            name,
-            settings=_settings(args.quick, args.seed, args.noise_type, _system(name)),
-            n_jobs=n_jobs,
-            progress=not args.no_progress,
-            folder=folder,
-            data=args.data,
-        )
-        for name in names
-    ]
+def _measured_lines(run):
+    """The console's summary of a measured run: choice, seal, chosen test RMSE."""
+    name, unit = run.system.name, run.system.unit
+    sys.stdout.write(
+        f"  {name}: chosen on the validation tails of the estimation records: "
+        f"{run.selected_model()}\n"
+        f"  sealed selection sha256 {run.sha256[:16]}... (selection.json), written "
+        "before the test records were read\n"
+    )
+    _, chosen = run.test_summary()
+    seeds = ", ".join(map(str, run.seeds))
+    for split, spread in chosen.items():
+        if spread["mean"] is None:
+            text = "failed"
+        else:
+            text = f"{spread['mean']:.4g} +- {spread['std']:.2g} {unit}"
+        sys.stdout.write(f"  {split}: {text} (seeds {seeds})\n")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -9,6 +9,12 @@ emps --data ../shared/data --quick`` (see ``skhybrid --help``), or from Python::
     from skhybrid.experiments import run_experiment, write_report
     result = run_experiment("pendulum", quick=True)
     write_report([result], "results")
+
+A user's own machine is a :class:`SystemSpec` (records, sample period,
+initialisation window, physics, test records) run by :func:`run_system`, or by
+``skhybrid run --system module:object``: the same candidate family, chosen on
+validation tails at each seed, with the selection sealed before the test records
+are read. :func:`benchmark_spec` returns a built-in benchmark's spec.
 """
 
 import importlib
@@ -18,6 +24,9 @@ import importlib
 _LAZY = {
     "MEASURED_SYSTEMS": "_measured",
     "PUBLISHED": "_measured",
+    "SystemSpec": "_spec",
+    "benchmark_spec": "_measured",
+    "run_system": "_measured",
     "SYSTEMS": "_systems",
     "ExperimentResult": "_runner",
     "ExperimentSettings": "_settings",
@@ -36,10 +45,13 @@ __all__ = [
     "ExperimentResult",
     "ExperimentSettings",
     "System",
+    "SystemSpec",
+    "benchmark_spec",
     "check_claims",
     "model_zoo",
     "run_experiment",
     "run_measured",
+    "run_system",
     "write_report",
 ]
 

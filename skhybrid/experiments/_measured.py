@@ -1,23 +1,25 @@
-"""Measured benchmarks as systems of ``skhybrid run``: data, zoo hooks, report.
+"""Measured systems in the pipeline: the built-in benchmarks' specs, the report.
 
-A measured benchmark runs through the same pipeline as the paper's simulated
-systems (:func:`~skhybrid.experiments.run_experiment`, the run folder with its
-lock and resume, joblib or Dask, progress, :func:`write_report`); what is its own
-is data and hooks of its :class:`MeasuredSystem`:
+A measured system, a user's or a built-in benchmark, is a
+:class:`~skhybrid.experiments.SystemSpec` run through the same pipeline as the
+paper's simulated systems (:func:`~skhybrid.experiments.run_experiment`, the run
+folder with its lock and resume, joblib or Dask, progress, :func:`write_report`):
 
-- it loads its benchmark files from a folder the user names (``--data``), with
-  the official split and initialisation window of the ``nonlinear-benchmarks``
-  loader (v1.0.1);
+- its estimation records are loaded (a built-in benchmark's from the folder the
+  user names with ``--data``, or fetched), with the official split and
+  initialisation window of the ``nonlinear-benchmarks`` loader (v1.0.1);
 - its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on the
-  estimation record only, choosing every candidate (window and segment lengths,
-  the state-space hybrid's horizon) on a validation tail of that record (its
-  last 25 %), never on a test record;
-- each model is simulated in free run on each test record from the first
+  estimation records only, choosing every candidate (window and segment
+  lengths, the state-space hybrid's horizon, the model quoted) on validation
+  tails of the records (their last 25 %), never on a test record;
+- every seed's selection is sealed (:mod:`skhybrid.experiments._sealed`), then
+  each model is simulated in free run on each test record from the first
   ``n_init`` measured outputs and scored by ``RMSE(y[n_init:],
   y_model[n_init:])`` in the official units, beside the published figures.
 """
 
 import base64
+import copy
 import html
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -39,11 +41,14 @@ from skhybrid.experiments._measured_physics import (
     with_next_input,
 )
 from skhybrid.experiments._measured_zoo import (
+    VALIDATION_FRACTION,
     MeasuredContext,
     _rmse,
     fit_model,
     zoo,
 )
+from skhybrid.experiments._sealed import SELECTION_FILE
+from skhybrid.experiments._spec import SystemSpec, hybrid_settings
 
 __all__ = [
     "MEASURED_SYSTEMS",
@@ -51,8 +56,13 @@ __all__ = [
     "MeasuredResult",
     "MeasuredSettings",
     "MeasuredSystem",
+    "benchmark_spec",
     "run_measured",
+    "run_system",
 ]
+
+#: Most residual evaluations of a physics' fit in a quick run.
+QUICK_NFEV = 20
 
 #: Published free-run test RMSE in the official units, with sources (data README).
 PUBLISHED = {
@@ -142,42 +152,161 @@ class MeasuredSettings:
 
 
 class MeasuredSystem:
-    """A measured benchmark: loader, official split, physics, units and zoo hooks.
+    """A measured system in the pipeline: its :class:`SystemSpec`, the runner's hooks.
 
     The runner calls :meth:`default_settings`, :meth:`new_result`,
-    :meth:`model_zoo` and :meth:`job`; subclasses set ``name``, ``title``,
-    ``unit`` and ``scale`` and implement :meth:`load` and :meth:`physics`.
+    :meth:`model_zoo` and :meth:`job`; the zoo reads the physics and the
+    candidates through the system. A user's system wraps a spec
+    (:meth:`from_spec`); a built-in benchmark builds its spec from its files
+    (:meth:`make_spec`).
+
+    Parameters
+    ----------
+    spec : SystemSpec or None, default=None
+        The system; None for a built-in benchmark, whose spec is built from
+        its files.
     """
 
-    #: Runs on measured records (``--data``), not on simulated splits.
+    #: Runs on measured records, not on simulated splits.
     measured = True
     name = ""
     title = ""
     unit = ""
     #: Factor from the data's units to the official reporting units.
     scale = 1.0
-    #: Candidate samples per segment of the physics' simulation-error fit
-    #: (multiple shooting; None: one free run), chosen on the validation tail.
-    segments = (None,)
-    #: Maps record inputs to the physics' inputs (None: the same).
-    physics_inputs = None
-    #: Records the state-space hybrid's training part is cut into.
-    hybrid_records = 4
+    #: Whether the zoo holds state-space hybrids (without reading any record).
+    hybrids = True
 
-    def load(self, data, quick=False):
-        """Return ``(train, tests, bunch)``; train and tests are ``(u, y)`` pairs."""
-        raise NotImplementedError
+    def __init__(self, spec=None):
+        self._spec = spec
+        if spec is not None:
+            self.name = spec.name
+            self.title = spec.title or spec.name
+            self.unit = spec.unit
+            self.scale = float(spec.scale)
+            self.hybrids = spec.hybrids is not None
 
-    def physics(self, u, y, dt, quick=False):
-        """The unfitted :class:`~skhybrid.domain.StateSpaceModel` of the system."""
-        raise NotImplementedError
+    @classmethod
+    def from_spec(cls, spec):
+        """The system of a user's spec.
 
-    def hybrid_candidates(self, quick=False):
-        """Settings of the state-space hybrids to try, by label (empty: none)."""
-        return {}
+        Parameters
+        ----------
+        spec : SystemSpec
+            The system.
+
+        Returns
+        -------
+        system : MeasuredSystem
+            Bound to ``spec``.
+        """
+        if not isinstance(spec, SystemSpec):
+            raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
+        return cls(spec)
+
+    def make_spec(self, data=None, quick=False):
+        """The system's spec (a built-in benchmark builds it from its files).
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            A built-in benchmark's quick form (a shorter Silverbox record).
+
+        Returns
+        -------
+        spec : SystemSpec
+            The system.
+        """
+        if self._spec is None:
+            raise NotImplementedError("a built-in benchmark builds its own spec")
+        return self._spec
+
+    @property
+    def spec(self):
+        """The spec the system is bound to (after :meth:`new_result`)."""
+        if self._spec is None:
+            raise AttributeError(f"{self.name}: no spec bound yet (call new_result)")
+        return self._spec
+
+    def bind(self, data=None, quick=False):
+        """A copy of the system bound to its spec.
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            A built-in benchmark's quick form.
+
+        Returns
+        -------
+        system : MeasuredSystem
+            With :attr:`spec` set.
+        """
+        if self._spec is not None:
+            return self
+        bound = copy.copy(self)
+        bound._spec = self.make_spec(data, quick)
+        return bound
+
+    def check_files(self, data=None, quick=False):
+        """Load and check the estimation records (a bad file raises here).
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            The quick form.
+        """
+        self.bind(data, quick).spec.estimation_records()
+
+    # -- what the zoo reads --------------------------------------------------------
+    @property
+    def physics_inputs(self):
+        return self.spec.physics_inputs
+
+    @property
+    def hybrid_records(self):
+        return self.spec.hybrid_records
+
+    def physics(self, U, Y, dt, quick=False):
+        """An unfitted physics for the records (its fit shortened when quick)."""
+        model = self.spec.make_physics(U, Y, dt)
+        if quick and "max_nfev" in model.get_params(deep=False):
+            limit = model.get_params(deep=False)["max_nfev"]
+            model.set_params(
+                max_nfev=QUICK_NFEV if limit is None else min(limit, QUICK_NFEV)
+            )
+        return model
+
+    def segment_candidates(self, ctx):
+        """The physics' segment lengths to try on the fitting parts of ``ctx``."""
+        lengths = [int(len(u) * (1 - VALIDATION_FRACTION)) for u in ctx.U]
+        segments = self.spec.segment_candidates(lengths)
+        return segments[:1] if ctx.quick else segments
+
+    def has_hybrids(self, quick=False):
+        """Whether the zoo holds state-space hybrids."""
+        return bool(self.hybrids)
+
+    def hybrid_candidates(self, ctx):
+        """The state-space hybrids to try, by label (quick: the first, shortened)."""
+        lengths = [int(len(u) * (1 - VALIDATION_FRACTION)) for u in ctx.U]
+        candidates = self.spec.hybrid_candidates(lengths)
+        if ctx.quick and candidates:
+            label, settings = next(iter(candidates.items()))
+            quick = dict(settings, max_epochs=min(settings.get("max_epochs", 6), 6))
+            quick["hidden_layer_sizes"] = (16, 16)
+            return {label: quick}
+        return candidates
 
     def published(self):
         """The published test figures, ``{split: {label: (rmse, source)}}``."""
+        if self._spec is not None and self._spec.published:
+            return self._spec.published
         return PUBLISHED.get(self.name, {})
 
     # -- the runner's hooks ----------------------------------------------------
@@ -198,31 +327,32 @@ class MeasuredSystem:
         """
         return MeasuredSettings(quick=bool(quick), seed=int(seed))
 
+    def store_key(self, settings):
+        """The run folder's name for this system's models at ``settings``' seed."""
+        return f"{self.name}-seed-{settings.seed}"
+
     def new_result(self, settings, data):
-        """Load the records and return an empty :class:`MeasuredResult`.
+        """Load the estimation records and return an empty :class:`MeasuredResult`.
+
+        No test record is read: they are read once the selection is sealed.
 
         Parameters
         ----------
         settings : MeasuredSettings
-            ``quick`` shortens the Silverbox's estimation record.
+            ``quick`` and ``seed``.
         data : str or Path or None
-            Folder holding the benchmark files; None fetches them (downloaded
-            once into the data home, see
-            :func:`skhybrid.datasets.get_data_home`).
+            A built-in benchmark's data folder; None fetches its files.
 
         Returns
         -------
         result : MeasuredResult
-            The records, ``n_init`` and ``dt``; no model yet.
+            The bound system, the records, ``n_init`` and ``dt``; no model yet.
         """
-        train, tests, bunch = self.load(data, quick=settings.quick)
-        result = MeasuredResult(self, settings, train, tests, bunch.n_init, bunch.dt)
-        if "test_arrow_full" in tests:
-            first, count = _hull_exit(train, tests["test_arrow_full"], bunch.n_init)
-            result.hull = {
-                "test_arrow_full": {"first_outside": first, "n_outside": count}
-            }
-        return result
+        system = self.bind(data, settings.quick)
+        U, Y = system.spec.estimation_records()
+        return MeasuredResult(
+            system, settings, (U, Y), system.spec.n_init, system.spec.sample_period()
+        )
 
     def model_zoo(self, settings):
         """The zoo's models (see :func:`skhybrid.experiments._measured_zoo.zoo`).
@@ -240,7 +370,7 @@ class MeasuredSystem:
         return zoo(self, settings.quick)
 
     def job(self, name, model, result, deps, sink=None):
-        """The joblib call that chooses, refits and simulates one model.
+        """The joblib call that chooses and refits one model.
 
         Parameters
         ----------
@@ -249,7 +379,7 @@ class MeasuredSystem:
         model : ZooModel
             Its candidates and fit.
         result : MeasuredResult
-            The records and settings.
+            The records and settings (its system is bound to the spec).
         deps : dict of str to dict
             The fits of the models it requires.
         sink : object or None, default=None
@@ -263,47 +393,45 @@ class MeasuredSystem:
         """
         from joblib import delayed
 
-        u, y = result.train
+        U, Y = result.train
         ctx = MeasuredContext(
-            self,
-            u,
-            y,
+            result.system,
+            U,
+            Y,
             int(result.n_init),
             float(result.dt),
             result.settings.quick,
             result.settings.seed,
         )
-        return delayed(fit_model)(name, model, ctx, deps, result.tests, sink)
-
-
-def _hybrid(horizon, hidden, *, quick, **extra):
-    settings = {
-        "horizon": horizon,
-        "hidden_layer_sizes": hidden,
-        "encoder_hidden_layer_sizes": (32,),
-        "lr": 3e-3,
-        "batch_size": 64,
-        "max_epochs": 6 if quick else 40,
-        "patience": 5,
-        "validation_fraction": 0.2,
-    }
-    settings.update(extra)
-    return settings
+        return delayed(fit_model)(name, model, ctx, deps, sink)
 
 
 class CascadedTanks(MeasuredSystem):
     name = "cascaded-tanks"
     title = "Cascaded tanks with overflow (measured)"
     unit = "V"
+    hybrids = False
 
-    def load(self, data, quick=False):
-        d = fetch_cascaded_tanks() if data is None else load_cascaded_tanks(data)
-        s = d.splits
-        return (s["train"].u, s["train"].y), {"test": (s["test"].u, s["test"].y)}, d
+    def make_spec(self, data=None, quick=False):
+        def load():
+            return fetch_cascaded_tanks() if data is None else load_cascaded_tanks(data)
 
-    def physics(self, u, y, dt, quick=False):
-        # Level units are volts of the lower sensor; the upper tank is latent.
-        return tanks_physics(dt, max_nfev=40 if quick else 100)
+        d = load()
+        return SystemSpec(
+            self.name,
+            records=[(d.splits["train"].u, d.splits["train"].y)],
+            # Level units are volts of the lower sensor; the upper tank is latent.
+            physics=tanks_physics(d.dt, max_nfev=100),
+            n_init=d.n_init,
+            dt=d.dt,
+            tests=lambda: {"test": _pair(load().splits["test"])},
+            title=self.title,
+            unit=self.unit,
+            published=PUBLISHED[self.name],
+            segments=(None,),
+            hybrids=None,
+            notes=BUILTIN_NOTES[self.name],
+        )
 
 
 class EMPS(MeasuredSystem):
@@ -312,18 +440,11 @@ class EMPS(MeasuredSystem):
     unit = "mm"
     scale = 1e3
 
-    def load(self, data, quick=False):
-        d = fetch_emps() if data is None else load_emps(data)
-        s = d.splits
-        return (s["train"].u, s["train"].y), {"test": (s["test"].u, s["test"].y)}, d
+    def make_spec(self, data=None, quick=False):
+        def load():
+            return fetch_emps() if data is None else load_emps(data)
 
-    segments = (2000, 4000, 8000)
-
-    def physics(self, u, y, dt, quick=False):
-        # The reference model of the description: symmetric friction and an offset.
-        return emps_physics(dt, max_nfev=20 if quick else 60)
-
-    def hybrid_candidates(self, quick=False):
+        d = load()
         # The network corrects the velocity's update from the velocity and the
         # input (the position drifts over the record, so it is not read).
         common = {
@@ -331,13 +452,26 @@ class EMPS(MeasuredSystem):
             "corrected_states": ["velocity (latent)"],
             "encoder_absolute": False,
         }
-        if quick:
-            quick_one = _hybrid(100, (16, 16), quick=True, stride=50, **common)
-            return {"T=100, (16, 16)": quick_one}
-        return {
-            f"T={T}, {h}": _hybrid(T, h, quick=False, stride=stride, **common)
+        hybrids = {
+            f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
             for T, h, stride in ((100, (32, 32), 25), (400, (32, 32), 50))
         }
+        return SystemSpec(
+            self.name,
+            records=[(d.splits["train"].u, d.splits["train"].y)],
+            # The reference model of the description: symmetric friction, offset.
+            physics=emps_physics(d.dt, max_nfev=60),
+            n_init=d.n_init,
+            dt=d.dt,
+            tests=lambda: {"test": _pair(load().splits["test"])},
+            title=self.title,
+            unit=self.unit,
+            scale=self.scale,
+            published=PUBLISHED[self.name],
+            segments=(2000, 4000, 8000),
+            hybrids=hybrids,
+            notes=BUILTIN_NOTES[self.name],
+        )
 
 
 class Silverbox(MeasuredSystem):
@@ -345,58 +479,94 @@ class Silverbox(MeasuredSystem):
     title = "Silverbox electronic Duffing oscillator (measured)"
     unit = "mV"
     scale = 1e3
-    segments = (512,)
-    physics_inputs = staticmethod(with_next_input)
-    hybrid_records = 6
 
-    def load(self, data, quick=False):
-        d = fetch_silverbox() if data is None else load_silverbox(data)
-        s = d.splits
-        train = s["train"]
+    def make_spec(self, data=None, quick=False):
+        def load():
+            return fetch_silverbox() if data is None else load_silverbox(data)
+
+        d = load()
+        train = d.splits["train"]
         n = 16384 if quick else len(train.u)
         names = ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation")
-        tests = {k: (s[k].u, s[k].y) for k in names}
-        return (train.u[:n], train.y[:n]), tests, d
-
-    def physics(self, u, y, dt, quick=False):
-        return silverbox_physics(dt, u, y, max_nfev=15 if quick else 30)
-
-    def hybrid_candidates(self, quick=False):
         common = {"corrected_states": ["derivative (latent)"]}
-        if quick:
-            quick_one = _hybrid(50, (16, 16), quick=True, stride=50, **common)
-            return {"T=50, (16, 16)": quick_one}
-        return {
-            f"T={T}, {h}": _hybrid(T, h, quick=False, stride=stride, **common)
+        hybrids = {
+            f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
             for T, h, stride in ((50, (32, 32), 50), (200, (32, 32), 100))
         }
 
+        def physics(U, Y, dt):
+            # The start: a one-step regression on finite differences.
+            return silverbox_physics(dt, U[0][:, :1], Y[0], max_nfev=30)
+
+        return SystemSpec(
+            self.name,
+            records=[(train.u[:n], train.y[:n])],
+            physics=physics,
+            n_init=d.n_init,
+            dt=d.dt,
+            tests=lambda: {k: _pair(load().splits[k]) for k in names},
+            title=self.title,
+            unit=self.unit,
+            scale=self.scale,
+            published=PUBLISHED[self.name],
+            physics_inputs=with_next_input,
+            segments=(512,),
+            hybrids=hybrids,
+            hybrid_records=6,
+            notes=BUILTIN_NOTES[self.name],
+        )
+
+
+def _pair(split):
+    return (split.u, split.y)
+
+
+#: Why each built-in benchmark's spec departs from the default candidate family.
+BUILTIN_NOTES = {
+    "cascaded-tanks": (
+        "Own candidates: whole-record physics fits only (one record of 1024 "
+        "samples) and no state-space hybrid; both chosen in 0.2 on the "
+        "validation tail, kept so that the recorded figures reproduce."
+    ),
+    "emps": (
+        "Own candidates: segments of 2000-8000 samples and hybrids that correct "
+        "the latent velocity from the velocity and the input (the position "
+        "drifts over the record); chosen in 0.2 on the validation tail."
+    ),
+    "silverbox": (
+        "Own candidates: 512-sample segments (a lightly damped oscillator's "
+        "long free runs have local minima), inputs held as [u(t), u(t+1)] "
+        "(first-order hold) and hybrids that correct the latent derivative; "
+        "chosen in 0.2 on the validation tail."
+    ),
+}
 
 MEASURED_SYSTEMS = {cls.name: cls() for cls in (CascadedTanks, EMPS, Silverbox)}
 
 
 class MeasuredResult:
-    """Everything one run of one measured benchmark produced.
+    """One seed's run of one measured system: the selection, then its test scores.
 
     Parameters
     ----------
     system : MeasuredSystem
-        The benchmark.
+        The system, bound to its spec.
     settings : MeasuredSettings
         ``quick`` and ``seed``.
-    train : tuple of ndarray
-        The estimation record ``(u, y)``.
-    tests : dict of str to tuple of ndarray
-        ``{split: (u, y)}``: the official test records.
+    train : tuple of list of ndarray
+        The estimation records ``(U, Y)``.
     n_init : int
-        Samples of the official initialisation window.
+        Samples of the initialisation window.
     dt : float
         Sample period.
 
     Attributes
     ----------
+    tests : dict of str to tuple of ndarray
+        ``{split: (u, y)}``: the test records, empty until the selection is
+        sealed (:func:`~skhybrid.experiments._sealed.score_tests`).
     predictions : dict of str to dict of str to ndarray
-        ``predictions[split][model]``: the free run over the test record (NaN
+        ``predictions[split][model]``: the free run over each test record (NaN
         where it failed), in the data's units.
     rows : list of dict
         One row per model and test record (``results.csv``).
@@ -405,26 +575,33 @@ class MeasuredResult:
     fits : dict of str to dict
         Fit time, epochs, warnings, validation RMSE and the choices of each
         model.
+    estimators : dict of str to object
+        The fitted models (loaded from the run folder where resumed).
     hull : dict
         On the Silverbox arrow: the first test sample whose window leaves the
         training hull, and how many do.
     wall_time : float
-        Seconds for the whole run.
+        Seconds for the selection.
     """
 
-    def __init__(self, system, settings, train, tests, n_init, dt):
+    def __init__(self, system, settings, train, n_init, dt):
         self.system = system
         self.settings = settings
         self.train = train
-        self.tests = tests
+        self.tests = {}
         self.n_init = int(n_init)
         self.dt = float(dt)
-        self.predictions = {split: {} for split in tests}
+        self.predictions = {}
         self.rows = []
         self.params = {}
         self.fits = {}
+        self.estimators = {}
         self.hull = {}
         self.wall_time = float("nan")
+
+    @property
+    def store_key(self):
+        return self.system.store_key(self.settings)
 
     @property
     def test_splits(self):
@@ -458,7 +635,7 @@ class MeasuredResult:
         }
 
     def selected_model(self):
-        """The model to quote: the lowest free-run RMSE on the validation tail."""
+        """The model to quote: the lowest free-run RMSE on the validation tails."""
         validation = self.validation_rmse()
         return min(validation, key=validation.get) if validation else None
 
@@ -475,7 +652,7 @@ class MeasuredResult:
         Returns
         -------
         rows : list of dict
-            One row (the benchmarks have one output).
+            One row (one output).
         """
         fit = self.fits.get(model, {})
         return [
@@ -488,51 +665,41 @@ class MeasuredResult:
                 "rmse": self.test_rmse(split, model),
                 "unit": self.system.unit,
                 "validation_rmse": fit.get("validation_rmse"),
+                "chosen": model == self.selected_model(),
                 "fit_time_s": fit.get("fit_time"),
                 "n_epochs": fit.get("n_epochs"),
             }
         ]
 
-    def summary(self):
-        """The system's entry of ``results.json``.
+    def selection(self):
+        """What was chosen at this seed, before any test record was read.
 
         Returns
         -------
-        summary : dict
-            Test RMSE by record and model, the published figures, the physics'
-            parameters, the choices, the validation RMSE, the selected model,
-            fit times, the hull exit and the rows.
+        selection : dict
+            The settings, each model's candidates with their validation RMSE
+            and choice, the validation RMSE of each model, the chosen model and
+            the physics' fitted parameters.
         """
         physics = self.params.get("physics", {})
         return {
-            "title": self.system.title,
-            "unit": self.system.unit,
-            "quick": self.settings.quick,
             "seed": self.settings.seed,
             "settings": self.settings.to_dict(),
-            "n_init": self.n_init,
-            "dt": self.dt,
-            "n_train": len(self.train[0]),
-            "test_rmse": {
-                split: {model: self.test_rmse(split, model) for model in preds}
-                for split, preds in self.predictions.items()
+            "models": {
+                model: _jsonable(fit.get("selection"))
+                for model, fit in self.fits.items()
             },
-            "published": {
-                split: {k: {"rmse": v, "source": s} for k, (v, s) in pub.items()}
-                for split, pub in self.system.published().items()
-            },
-            "physics_params": {k: p["value"] for k, p in physics.items()},
-            "physics_params_std": {k: p["std"] for k, p in physics.items()},
-            "selection": {k: fit.get("selection") for k, fit in self.fits.items()},
             "validation_rmse": self.validation_rmse(),
-            "selected_model": self.selected_model(),
-            "fit_time_s": {k: fit.get("fit_time") for k, fit in self.fits.items()},
-            "hull": self.hull,
-            "wall_time_s": self.wall_time,
-            "params": self.params,
-            "fits": self.fits,
-            "results": self.rows,
+            "chosen_model": self.selected_model(),
+            "physics_params": {k: p["value"] for k, p in physics.items()},
         }
+
+
+def _jsonable(value):
+    """``value`` with floats that JSON writes the same way every time."""
+    import json
+
+    return json.loads(json.dumps(value, default=str))
 
 
 def _hull_exit(train, test, n_init):
@@ -541,19 +708,22 @@ def _hull_exit(train, test, n_init):
 
     def rows(u, y):
         y = np.ravel(y)
-        return np.column_stack([y[1:], y[:-1], np.ravel(u)[1:]])
+        return np.column_stack([y[1:], y[:-1], np.asarray(u)[1:, 0]])
 
-    inside = in_convex_hull(rows(*test), rows(*train))
+    U, Y = train
+    inside = in_convex_hull(
+        rows(*test), np.vstack([rows(u, y) for u, y in zip(U, Y, strict=True)])
+    )
     outside = np.flatnonzero(~inside) + 1
     return (int(outside[0]) if outside.size else None), int(outside.size)
 
 
-def measured_figure(result, out_dir):
-    """Draw the test records against each model's free run; return the path.
+def measured_figure(run, out_dir):
+    """Draw the test records and each model's free run (first seed); return the path.
 
     Parameters
     ----------
-    result : MeasuredResult
+    run : MeasuredRun
         A finished run.
     out_dir : Path
         Where ``<system>.png`` is written.
@@ -567,9 +737,10 @@ def measured_figure(result, out_dir):
     # and a user's own plotting session is left alone.
     from matplotlib.figure import Figure
 
+    result = run.results[0]
     system, tests, n_init, dt = result.system, result.tests, result.n_init, result.dt
-    fig = Figure(figsize=(7 * len(tests), 6))
-    axes = fig.subplots(2, len(tests), sharex="col", squeeze=False)
+    fig = Figure(figsize=(7 * max(1, len(tests)), 6))
+    axes = fig.subplots(2, max(1, len(tests)), sharex="col", squeeze=False)
     for j, (split, (_u, y)) in enumerate(tests.items()):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
@@ -595,24 +766,39 @@ def measured_figure(result, out_dir):
             hull = result.hull.get(split)
             if hull and hull["first_outside"] is not None:
                 ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
-        top.set_title(f"{system.title}: {split}")
+        top.set_title(f"{system.title}: {split} (seed {result.settings.seed})")
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
         bottom.set_ylabel(f"simulation error [{unit}]\n(physics-based models)")
         bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
         top.legend(fontsize=7)
     fig.tight_layout()
-    path = Path(out_dir) / f"{system.name}.png"
+    path = Path(out_dir) / f"{_slug(system.name)}.png"
     fig.savefig(path, dpi=90)
     return path
 
 
-def measured_section(result, figure):
+def _slug(text):
+    from skhybrid.experiments._store import _slug as slug
+
+    return slug(text)
+
+
+def _figure_text(spread):
+    if spread["mean"] is None:
+        return "failed"
+    text = f"{spread['mean']:.4g} &plusmn; {spread['std']:.2g}"
+    if spread.get("n_failed"):
+        text += f" ({spread['n_failed']} failed)"
+    return text
+
+
+def measured_section(run, figure):
     """The report's HTML section of a measured run.
 
     Parameters
     ----------
-    result : MeasuredResult
+    run : MeasuredRun
         A finished run.
     figure : Path
         Its figure, embedded in the page.
@@ -622,17 +808,24 @@ def measured_section(result, figure):
     section : str
         HTML.
     """
-    summary = result.summary()
+    summary = run.summary()
     unit = html.escape(summary["unit"])
+    seeds = ", ".join(str(s) for s in summary["seeds"])
     rows = []
     for split, scores in summary["test_rmse"].items():
-        for model, value in scores.items():
-            validation = summary["validation_rmse"].get(model)
+        chosen = summary["chosen_test_rmse"][split]
+        rows.append(
+            f"<tr><td>{html.escape(split)}</td><td><b>chosen on validation</b></td>"
+            f"<td><b>{_figure_text(chosen)}</b></td><td></td><td>ours</td></tr>"
+        )
+        for model, spread in scores.items():
+            validation = [
+                v[model] for v in summary["validation_rmse"].values() if model in v
+            ]
+            val = f"{np.mean(validation):.4g}" if validation else ""
             rows.append(
                 f"<tr><td>{html.escape(split)}</td><td>{html.escape(model)}</td>"
-                f"<td>{value:.4g}</td>"
-                f"<td>{'' if validation is None else format(validation, '.4g')}</td>"
-                "<td>ours</td></tr>"
+                f"<td>{_figure_text(spread)}</td><td>{val}</td><td>ours</td></tr>"
             )
         for label, entry in summary["published"].get(split, {}).items():
             rows.append(
@@ -640,53 +833,254 @@ def measured_section(result, figure):
                 f"<td>{entry['rmse']:.4g}</td><td></td>"
                 f"<td>{html.escape(entry['source'])}</td></tr>"
             )
-    params = ", ".join(
-        f"{html.escape(k)} = {float(v):.5g} &plusmn; "
-        f"{float(summary['physics_params_std'][k] or 0.0):.2g}"
-        for k, v in summary["physics_params"].items()
-        if np.ndim(v) == 0
+    params = "; ".join(
+        f"seed {seed}: "
+        + ", ".join(
+            f"{html.escape(k)} = {float(v):.5g}"
+            for k, v in values.items()
+            if np.ndim(v) == 0
+        )
+        for seed, values in summary["physics_params"].items()
     )
     data = base64.b64encode(Path(figure).read_bytes()).decode("ascii")
-    selected = summary["selected_model"]
+    chosen = ", ".join(
+        f"seed {s}: {html.escape(str(m))}" for s, m in summary["chosen_model"].items()
+    )
+    notes = (
+        f"<p>Candidates: {html.escape(summary['notes'])}</p>"
+        if summary["notes"]
+        else ""
+    )
     return f"""<h2>{html.escape(summary["title"])}</h2>
-<p>Free-run simulation RMSE on the official test record(s) [{unit}], the first
-{summary["n_init"]} measured samples initialise the state (official protocol).
-Every model was fitted on the estimation record only; every choice (window and
-segment lengths, the hybrid's horizon T, the model quoted) was made on its last
-25 %, with the candidates fitted on the first 75 %.
-quick = {summary["quick"]}, seed = {summary["seed"]},
-{summary["wall_time_s"]:.0f} s.</p>
+<p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
+deviation over seeds {seeds} (each seed a full selection); the first
+{summary["n_init"]} measured samples initialise the state. Every model was fitted
+on the estimation records only; every choice (window and segment lengths, the
+hybrid's horizon T, the model quoted) was made on the last 25 % of each record,
+with the candidates fitted on the first 75 %.
+quick = {summary["quick"]}, {summary["wall_time_s"]:.0f} s.</p>
+<p>Sealed selection: <code>{SELECTION_FILE}</code>, SHA-256
+<code>{summary["selection_sha256"]}</code>, written before any test record was
+read.</p>{notes}
 <table><tr><th>test</th><th>model</th><th>RMSE [{unit}]</th>
-<th>validation RMSE [{unit}]</th><th>source</th></tr>
+<th>validation RMSE [{unit}] (mean)</th><th>source</th></tr>
 {"".join(rows)}</table>
-<p>Chosen on the validation tail of the estimation record (never on a test
-record): <b>{html.escape(str(selected))}</b>.</p>
+<p>Chosen on the validation tails (never on a test record): {chosen}.</p>
 <p>Physics parameters: {params}</p>
-<h4>Test records and free runs</h4>
+<h4>Test records and free runs (seed {summary["seeds"][0]})</h4>
 <img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>
 """
 
 
-def run_measured(name, data, out, *, quick=False, seed=0, n_jobs=1, overwrite=False):
-    """Run a measured benchmark into the run folder ``out`` and write its report.
+def benchmark_spec(name, data=None, *, quick=False):
+    """The :class:`SystemSpec` of a built-in measured benchmark.
+
+    The built-in benchmarks are specs of the same public form a user writes for
+    their own machine; this returns one to read, change or run with
+    :func:`run_system`.
+
+    Parameters
+    ----------
+    name : {"cascaded-tanks", "emps", "silverbox"}
+        The benchmark.
+    data : str or Path or None, default=None
+        Folder holding its files; None fetches them once into the data home.
+    quick : bool, default=False
+        The quick form (a shorter Silverbox estimation record).
+
+    Returns
+    -------
+    spec : SystemSpec
+        The estimation records loaded; the test records load when called.
+    """
+    if name not in MEASURED_SYSTEMS:
+        raise ValueError(
+            f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
+        )
+    return MEASURED_SYSTEMS[name].make_spec(data, quick)
+
+
+#: The seeds of a measured run: each a full selection.
+DEFAULT_SEEDS = (0, 1, 2)
+
+
+def _check_seeds(seeds):
+    seeds = list(seeds)
+    if not seeds or any(
+        isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0
+        for s in seeds
+    ):
+        raise ValueError(
+            f"seeds must be a non-empty sequence of ints >= 0; got seeds={seeds!r}."
+        )
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must differ; got seeds={seeds!r}.")
+    return [int(s) for s in seeds]
+
+
+def measured_identity(system, quick, seeds):
+    """What makes two measured runs the same (a resumed run must match it).
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The system.
+    quick : bool
+        Shorter fits.
+    seeds : list of int
+        The seeds.
+
+    Returns
+    -------
+    identity : dict
+        The version, the system, ``quick``, the seeds and the settings.
+    """
+    import skhybrid
+
+    settings = system.default_settings(quick, seeds[0])
+    return {
+        "skhybrid": skhybrid.__version__,
+        "systems": [system.name],
+        "quick": bool(quick),
+        "seeds": list(seeds),
+        "settings": settings.to_dict(),
+    }
+
+
+def _run_folder(
+    system, words, out, *, data, quick, seeds, n_jobs, overwrite, resume, progress
+):
+    import shlex
+
+    from skhybrid.experiments._report import write_report
+    from skhybrid.experiments._sealed import run_seeds
+    from skhybrid.experiments._store import RunFolder
+
+    identity = measured_identity(system, quick, seeds)
+    folder = RunFolder(out).prepare()
+    try:
+        folder.start(
+            identity,
+            "skhybrid " + shlex.join(words),
+            overwrite=overwrite,
+            resume=resume,
+        )
+        run = run_seeds(
+            system,
+            seeds=seeds,
+            quick=quick,
+            n_jobs=n_jobs,
+            progress=progress,
+            folder=folder,
+            data=data,
+        )
+        write_report([run], folder.path)
+        folder.complete()
+    finally:
+        folder.lock.release()
+    return run.summary()
+
+
+def run_system(
+    spec,
+    out,
+    *,
+    seeds=DEFAULT_SEEDS,
+    quick=False,
+    n_jobs=1,
+    overwrite=False,
+    resume=False,
+    progress=False,
+):
+    """Fit, choose, seal and score a measured system described by ``spec``.
+
+    The public workflow of a user's machine (and of the built-in benchmarks):
+    at each seed the default candidate family is fitted on the estimation
+    records and every choice made on their validation tails; the selections of
+    all seeds are written to ``OUT/selection.json`` with their SHA-256 before
+    any test record is read; then every model is simulated on the test records
+    and ``results.csv``, ``results.json`` (the hash, each seed's choice and the
+    chosen model's test RMSE over seeds), ``report.html`` and a figure are
+    written. The same as ``skhybrid run --system module:object --out OUT``.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The system.
+    out : str or Path
+        The run folder, checked and locked before any fit; finished models are
+        kept as they land and an unfinished run of the same settings is carried
+        on.
+    seeds : sequence of int, default=(0, 1, 2)
+        Seeds of the networks; each is a full selection.
+    quick : bool, default=False
+        Shorter fits and fewer candidates (a smoke test, not a figure).
+    n_jobs : int, default=1
+        Models fitted in parallel with joblib.
+    overwrite : bool, default=False
+        Replace a previous run in ``out``.
+    resume : bool, default=False
+        Also accept a finished run of the same settings (its report is written
+        again).
+    progress : bool, default=False
+        Progress bars on standard error.
+
+    Returns
+    -------
+    results : dict
+        The system's entry of ``results.json``.
+
+    Examples
+    --------
+    >>> from skhybrid.experiments import SystemSpec, run_system  # doctest: +SKIP
+    >>> spec = SystemSpec("my-machine", records=[(u1, y1), (u2, y2)],
+    ...                   physics=physics, n_init=10, dt=0.01,
+    ...                   tests={"test": (u3, y3)})  # doctest: +SKIP
+    >>> results = run_system(spec, "runs/my-machine")  # doctest: +SKIP
+    >>> results["chosen_test_rmse"]["test"]["mean"]  # doctest: +SKIP
+    """
+    system = MeasuredSystem.from_spec(spec)
+    seeds = _check_seeds(seeds)
+    words = ["run", "--system", spec.name, "--out", str(out)]
+    words += ["--quick"] * bool(quick) + ["--seeds", *map(str, seeds)]
+    return _run_folder(
+        system,
+        words,
+        out,
+        data=None,
+        quick=quick,
+        seeds=seeds,
+        n_jobs=n_jobs,
+        overwrite=overwrite,
+        resume=resume,
+        progress=progress,
+    )
+
+
+def run_measured(
+    name, data, out, *, quick=False, seeds=DEFAULT_SEEDS, n_jobs=1, overwrite=False
+):
+    """Run a built-in measured benchmark into the run folder ``out``.
 
     The same pipeline as ``skhybrid run NAME --data DATA --out OUT``: the folder
     is checked and locked before any fit, finished models are kept as they land,
-    and an unfinished run of the same settings in ``out`` is carried on.
+    an unfinished run of the same settings in ``out`` is carried on, and the
+    selection of every seed is sealed before the test records are read.
 
     Parameters
     ----------
     name : str
         One of :data:`MEASURED_SYSTEMS`.
-    data : str or pathlib.Path
-        Folder holding the benchmark files (for example ``../shared/data``).
+    data : str or pathlib.Path or None
+        Folder holding the benchmark files (for example ``../shared/data``);
+        None fetches them.
     out : str or pathlib.Path
-        The run folder: ``results.csv``, ``results.json``, ``report.html``,
-        ``<name>.png`` and ``models/``.
+        The run folder: ``selection.json``, ``results.csv``, ``results.json``,
+        ``report.html``, ``<name>.png`` and ``models/``.
     quick : bool, default=False
         Shorter fits (and a shorter Silverbox estimation record).
-    seed : int, default=0
-        Seed of the networks.
+    seeds : sequence of int, default=(0, 1, 2)
+        Seeds of the networks; each is a full selection.
     n_jobs : int, default=1
         Models fitted in parallel with joblib.
     overwrite : bool, default=False
@@ -697,39 +1091,23 @@ def run_measured(name, data, out, *, quick=False, seed=0, n_jobs=1, overwrite=Fa
     results : dict
         The system's entry of ``results.json``.
     """
-    from skhybrid.experiments._report import write_report
-    from skhybrid.experiments._runner import run_experiment
-    from skhybrid.experiments._store import RunFolder
-
     if name not in MEASURED_SYSTEMS:
         raise ValueError(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
         )
-    import shlex
-
-    import skhybrid
-
-    system = MEASURED_SYSTEMS[name]
-    settings = system.default_settings(quick, seed)
-    # The identity and command of `skhybrid run`, so that either carries on a
-    # run the other left unfinished.
-    identity = {
-        "skhybrid": skhybrid.__version__,
-        "systems": [name],
-        "quick": settings.quick,
-        "seed": settings.seed,
-        "settings": settings.to_dict(),
-    }
-    words = ["run", name, "--data", str(data), "--out", str(out)]
-    words += ["--quick"] * settings.quick + ["--seed", str(settings.seed)]
-    folder = RunFolder(out).prepare()
-    try:
-        folder.start(identity, "skhybrid " + shlex.join(words), overwrite=overwrite)
-        result = run_experiment(
-            system, settings=settings, n_jobs=n_jobs, folder=folder, data=data
-        )
-        write_report([result], folder.path)
-        folder.complete()
-    finally:
-        folder.lock.release()
-    return result.summary()
+    seeds = _check_seeds(seeds)
+    words = ["run", name] + (["--data", str(data)] if data is not None else [])
+    words += ["--out", str(out)] + ["--quick"] * bool(quick)
+    words += ["--seeds", *map(str, seeds)]
+    return _run_folder(
+        MEASURED_SYSTEMS[name],
+        words,
+        out,
+        data=data,
+        quick=quick,
+        seeds=seeds,
+        n_jobs=n_jobs,
+        overwrite=overwrite,
+        resume=False,
+        progress=False,
+    )

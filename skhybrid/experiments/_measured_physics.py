@@ -268,37 +268,48 @@ def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30):
 
 
 def fit_segments(model, u, y, segment):
-    """Fit ``model`` by the simulation error over consecutive segments of a record.
+    """Fit ``model`` by the simulation error over consecutive segments of records.
 
     Multiple shooting: each segment of ``segment`` samples is a record whose
     initial state is estimated from its own first ``model.n_init`` samples; the
-    remainder of the record (fewer than ``segment`` samples) joins the last
-    segment.
+    remainder of a record (fewer than ``segment`` samples) joins its last
+    segment. A model without ``fit_simulation`` (any estimator that simulates)
+    is fitted with ``fit(u, y)`` on the records as they are.
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or estimator
         The model to fit (in place).
-    u, y : ndarray of shape (n_times, n_inputs) and (n_times, n_outputs)
-        One record.
+    u, y : ndarray of shape (n_times, n_inputs) and (n_times, n_outputs), or \
+lists of them
+        One record, or several.
     segment : int or None
-        Samples per segment; ``None`` fits the whole record at once.
+        Samples per segment; ``None`` fits whole records.
 
     Returns
     -------
-    model : StateSpaceModel
+    model : StateSpaceModel or estimator
         The fitted model.
     """
-    n = len(y)
-    if segment is None or segment >= n:
-        return model.fit_simulation(u, y)
-    if segment <= model.n_init:
+    several = isinstance(u, (list, tuple))
+    U, Y = (list(u), list(y)) if several else ([u], [y])
+    if not hasattr(model, "fit_simulation"):
+        return model.fit(U if several else u, Y if several else y)
+    if segment is not None and segment <= model.n_init:
         raise ValueError(
             f"segment={segment} must exceed the model's n_init={model.n_init}: a "
             "segment's first n_init samples only estimate its initial state."
         )
-    n_seg = n // segment
-    bounds = [i * segment for i in range(n_seg)] + [n]
-    U = [u[a:b] for a, b in itertools.pairwise(bounds)]
-    Y = [y[a:b] for a, b in itertools.pairwise(bounds)]
-    return model.fit_simulation(U, Y)
+    pieces_U, pieces_Y = [], []
+    for u_i, y_i in zip(U, Y, strict=True):
+        n = len(y_i)
+        if segment is None or segment >= n:
+            bounds = [0, n]
+        else:
+            bounds = [i * segment for i in range(n // segment)] + [n]
+        for a, b in itertools.pairwise(bounds):
+            pieces_U.append(u_i[a:b])
+            pieces_Y.append(y_i[a:b])
+    if len(pieces_U) == 1:
+        return model.fit_simulation(pieces_U[0], pieces_Y[0])
+    return model.fit_simulation(pieces_U, pieces_Y)

@@ -1,13 +1,15 @@
-"""The model zoo of the measured benchmarks and its one choose-refit-score rule.
+"""The model zoo of measured systems and its one choose-refit rule.
 
-Every model is fitted on the estimation record only. Choices (window lengths,
+Every model is fitted on the estimation records only. Choices (window lengths,
 segment lengths, the horizon ``T`` and the architecture of the state-space
-hybrid, and the model to quote) are made on its validation tail, the last 25 %:
-a candidate is fitted on the first 75 % and simulated in free run over the tail
-from the tail's first ``n_init`` measured outputs, as the official protocol
-simulates a test record. The chosen candidate is then refitted on the whole
-record (except the state-space hybrid, quoted as fitted on the first 75 %) and
-simulated on every test record. :func:`choose_and_refit` is that rule, written
+hybrid, and the model to quote) are made on their validation tails, the last
+25 % of each record: a candidate is fitted on the first 75 % of every record and
+simulated in free run over each tail from the tail's first ``n_init`` measured
+outputs, as the official protocol simulates a test record; its score is the RMSE
+over every tail's simulated samples. The chosen candidate is then refitted on the
+whole records (except the state-space hybrid, quoted as fitted on the first
+75 %). Test records are simulated later, once the selection is sealed
+(:mod:`skhybrid.experiments._sealed`). :func:`choose_and_refit` is that rule, written
 once; each model of the zoo is a :class:`ZooModel`: its candidates, how one is
 fitted, and what it needs from models fitted before it.
 """
@@ -29,7 +31,15 @@ from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.experiments._runner import _interrupts_raise, _physical_params
 from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
 
-__all__ = ["MeasuredContext", "ZooModel", "choose_and_refit", "fit_model", "zoo"]
+__all__ = [
+    "MeasuredContext",
+    "ZooModel",
+    "choose_and_refit",
+    "fit_model",
+    "pooled_rmse",
+    "simulate_records",
+    "zoo",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -46,39 +56,115 @@ def _rmse(y, pred, n_init):
     )
 
 
-def _tail_split(u, y, fraction=VALIDATION_FRACTION):
-    cut = int(len(u) * (1 - fraction))
-    return (u[:cut], y[:cut]), (u[cut:], y[cut:])
+def pooled_rmse(Y, preds, n_init):
+    """RMSE over every record's samples after its first ``n_init``.
+
+    Parameters
+    ----------
+    Y, preds : list of array-like of shape (n_times_i,) or (n_times_i, 1)
+        Measured and simulated outputs of each record.
+    n_init : int
+        Samples of each record's initialisation window (not scored).
+
+    Returns
+    -------
+    rmse : float
+        ``sqrt(sum of squared errors / number of scored samples)``.
+    """
+    errors = np.concatenate(
+        [
+            np.ravel(y)[n_init:] - np.ravel(p)[n_init:]
+            for y, p in zip(Y, preds, strict=True)
+        ]
+    )
+    return float(np.sqrt(np.mean(errors**2)))
 
 
-def _records(u, y, n):
-    """``n`` consecutive records of equal length (the rest joins the last)."""
-    size = len(u) // n
-    edges = [i * size for i in range(n)] + [len(u)]
-    U, Y = zip(*[(u[a:b], y[a:b]) for a, b in itertools.pairwise(edges)], strict=True)
-    return list(U), list(Y)
+def _tail_split(U, Y, fraction=VALIDATION_FRACTION):
+    """The first ``1 - fraction`` of every record, and the tails."""
+    cuts = [int(len(u) * (1 - fraction)) for u in U]
+    head = (
+        [u[:c] for u, c in zip(U, cuts, strict=True)],
+        [y[:c] for y, c in zip(Y, cuts, strict=True)],
+    )
+    tail = (
+        [u[c:] for u, c in zip(U, cuts, strict=True)],
+        [y[c:] for y, c in zip(Y, cuts, strict=True)],
+    )
+    return head, tail
 
 
-def _score(model, u, y, n_init):
-    """Free-run RMSE of a record from its first ``n_init`` outputs (inf: failed)."""
-    try:
-        pred = model.simulate(u, y[:n_init])
-    except SIMULATION_ERRORS:
+def _records(U, Y, n):
+    """About ``n`` consecutive pieces cut from the records, in proportion to length.
+
+    Each record gives at least one piece; within a record the pieces have equal
+    length (the rest joins its last).
+    """
+    total = sum(len(u) for u in U)
+    pieces_U, pieces_Y = [], []
+    for u, y in zip(U, Y, strict=True):
+        k = max(1, round(n * len(u) / total))
+        size = len(u) // k
+        edges = [i * size for i in range(k)] + [len(u)]
+        for a, b in itertools.pairwise(edges):
+            pieces_U.append(u[a:b])
+            pieces_Y.append(y[a:b])
+    return pieces_U, pieces_Y
+
+
+def simulate_records(model, U, Y, n_init):
+    """Free runs of ``model`` over records from their first ``n_init`` outputs.
+
+    Parameters
+    ----------
+    model : object
+        Anything with ``simulate(inputs, initial)``.
+    U, Y : list of ndarray
+        Inputs and measured outputs of each record.
+    n_init : int
+        Measured samples that start each free run.
+
+    Returns
+    -------
+    preds : list of ndarray of shape (n_times_i,)
+        The simulated outputs; NaN throughout where a free run failed.
+    errors : list of str or None
+        Why each failed (None where it did not).
+    """
+    preds, errors = [], []
+    for u, y in zip(U, Y, strict=True):
+        try:
+            pred = np.ravel(model.simulate(u, y[:n_init])).astype(float)
+            errors.append(None)
+        except SIMULATION_ERRORS as exc:
+            pred = np.full(len(y), np.nan)
+            errors.append(str(exc))
+        preds.append(pred)
+    return preds, errors
+
+
+def _score(model, U, Y, n_init):
+    """Pooled free-run RMSE of records from their first ``n_init`` outputs.
+
+    Infinite where a free run failed or is not finite.
+    """
+    preds, errors = simulate_records(model, U, Y, n_init)
+    if any(errors):
         return float("inf")
-    value = _rmse(y, pred, n_init)
+    value = pooled_rmse(Y, preds, n_init)
     return value if np.isfinite(value) else float("inf")
 
 
 @dataclass(frozen=True)
 class MeasuredContext:
-    """What every fit of a measured run reads: the system, its record, settings.
+    """What every fit of a measured run reads: the system, its records, settings.
 
     Parameters
     ----------
     system : MeasuredSystem
-        The benchmark.
-    u, y : ndarray of shape (n_times, 1)
-        The estimation record.
+        The system (its spec's physics, candidates and units).
+    U, Y : list of ndarray of shape (n_times_i, n_inputs) and (n_times_i, 1)
+        The estimation records.
     n_init : int
         Samples of the official initialisation window.
     dt : float
@@ -94,8 +180,8 @@ class MeasuredContext:
     """
 
     system: object
-    u: np.ndarray
-    y: np.ndarray
+    U: list
+    Y: list
     n_init: int
     dt: float
     quick: bool
@@ -127,10 +213,11 @@ class ZooModel:
     Parameters
     ----------
     fit : callable
-        ``fit(candidate, u, y, ctx, deps, start)`` returns a fitted model with
-        ``simulate(inputs, initial)``; ``deps`` maps each required model's name
-        to its fit on the same record part, ``start`` is the chosen candidate's
-        fit on the first 75 % when refitting (else None).
+        ``fit(candidate, U, Y, ctx, deps, start)`` returns a fitted model with
+        ``simulate(inputs, initial)``; ``U`` and ``Y`` are lists of records,
+        ``deps`` maps each required model's name to its fit on the same record
+        parts, ``start`` is the chosen candidate's fit on the first 75 % when
+        refitting (else None).
     candidates : callable
         ``candidates(ctx, records)`` returns ``{key: candidate}``; ``records``
         maps each required model's name to its fit record.
@@ -189,40 +276,42 @@ def _dense_regressor(ctx):
     return _dense(ctx.quick, ctx.seed)
 
 
-def _fit_physics(segment, u, y, ctx, deps, start):
-    """The system's physics fitted on ``u``, ``y`` (from ``start``'s params)."""
-    system = ctx.system
-    model = system.physics(u, y, ctx.dt, quick=ctx.quick)
-    if start is not None:
-        model.set_params(params=dict(start.params_))
+def _model_inputs(system, U):
     transform = system.physics_inputs
-    u_model = u if transform is None else transform(u)
+    return list(U) if transform is None else [transform(u) for u in U]
+
+
+def _fit_physics(segment, U, Y, ctx, deps, start):
+    """The system's physics fitted on the records (from ``start``'s params)."""
+    system = ctx.system
+    U_model = _model_inputs(system, U)
+    model = system.physics(U_model, Y, ctx.dt, quick=ctx.quick)
+    if start is not None and isinstance(getattr(start, "params_", None), dict):
+        model.set_params(params=dict(start.params_))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit_segments(model, u_model, y, segment)
-    return _TransformedInputs(model, transform)
+        fit_segments(model, U_model, Y, segment)
+    return _TransformedInputs(model, system.physics_inputs)
 
 
-def _fit_narx(make_regressor, n, u, y, ctx, deps, start):
+def _fit_narx(make_regressor, n, U, Y, ctx, deps, start):
     model = _watch(_NARXSimulator(make_regressor(ctx), n), ctx)
-    return model.fit(u, y)
+    return model.fit(list(U), list(Y))
 
 
-def _fit_correction(make_regressor, n, u, y, ctx, deps, start):
+def _fit_correction(make_regressor, n, U, Y, ctx, deps, start):
     model = _PhysicsCorrection(
         deps["physics"], make_regressor(ctx), n_steps=n, n_init=ctx.n_init
     )
-    return _watch(model, ctx).fit(u, y)
+    return _watch(model, ctx).fit(list(U), list(Y))
 
 
-def _fit_state_space_hybrid(settings, u, y, ctx, deps, start):
-    """A :class:`StateSpaceHybridRegressor` on records cut from ``u``, ``y``."""
+def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
+    """A :class:`StateSpaceHybridRegressor` on pieces cut from the records."""
     from skhybrid.hybrid import StateSpaceHybridRegressor
 
     system, physics = ctx.system, deps["physics"]
-    transform = system.physics_inputs
-    u_model = u if transform is None else transform(u)
-    U, Y = _records(u_model, y, system.hybrid_records)
+    U, Y = _records(_model_inputs(system, U), Y, system.hybrid_records)
     start_physics = clone(physics.estimator).set_params(
         params=dict(physics.estimator.params_)
     )
@@ -237,12 +326,12 @@ def _fit_state_space_hybrid(settings, u, y, ctx, deps, start):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model.fit_simulation(U, Y)
-    return _TransformedInputs(model, transform)
+    return _TransformedInputs(model, system.physics_inputs)
 
 
 # -- the candidates ------------------------------------------------------------------
 def _segments(ctx, records):
-    return {segment: segment for segment in ctx.system.segments}
+    return {segment: segment for segment in ctx.system.segment_candidates(ctx)}
 
 
 def _arx_windows(ctx, records):
@@ -260,7 +349,7 @@ def _correction_windows(ctx, records):
 
 
 def _hybrids(ctx, records):
-    return ctx.system.hybrid_candidates(ctx.quick)
+    return ctx.system.hybrid_candidates(ctx)
 
 
 def zoo(system, quick=False):
@@ -312,7 +401,7 @@ def zoo(system, quick=False):
             choice="n",
         ),
     }
-    if system.hybrid_candidates(quick):
+    if system.has_hybrids(quick):
         # T and the architecture chosen on the tail; the chosen one is quoted as
         # fitted on the first 75 % (a refit on the whole record would double the
         # time).
@@ -328,16 +417,16 @@ def zoo(system, quick=False):
 
 # -- choose, refit, score --------------------------------------------------------------
 def choose_and_refit(model, ctx, deps):
-    """Fit each candidate on the first 75 %, choose on the tail, refit the choice.
+    """Fit each candidate on the first 75 %, choose on the tails, refit the choice.
 
     Parameters
     ----------
     model : ZooModel
         The model's candidates and fit.
     ctx : MeasuredContext
-        The system, the estimation record and the settings.
+        The system, the estimation records and the settings.
     deps : dict of str to dict
-        For each required model: ``model`` (its fit on the whole record),
+        For each required model: ``model`` (its fit on the whole records),
         ``validation_fit`` (on the first 75 %) and ``fit`` (its fit record).
 
     Returns
@@ -350,8 +439,8 @@ def choose_and_refit(model, ctx, deps):
         Validation RMSE of every candidate (official units), the choice and on
         what the quoted model was fitted.
     """
-    u, y, n_init = ctx.u, ctx.y, ctx.n_init
-    (u_a, y_a), (u_b, y_b) = _tail_split(u, y)
+    U, Y, n_init = ctx.U, ctx.Y, ctx.n_init
+    (u_a, y_a), (u_b, y_b) = _tail_split(U, Y)
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
     on_part = {k: d["validation_fit"] for k, d in deps.items()}
@@ -377,7 +466,7 @@ def choose_and_refit(model, ctx, deps):
     validation_fit = fitted.get(best)
     if validation_fit is not None and model.refit:
         whole = {k: d["model"] for k, d in deps.items()}
-        chosen = model.fit(candidates[best], u, y, ctx, whole, validation_fit)
+        chosen = model.fit(candidates[best], U, Y, ctx, whole, validation_fit)
     else:
         chosen = validation_fit
     selection = {
@@ -385,9 +474,9 @@ def choose_and_refit(model, ctx, deps):
         model.choice: best,
         "validation_rmse": scale * scores[best],
         "fitted_on": (
-            "the whole estimation record"
+            "the whole estimation records"
             if model.refit
-            else "the first 75 % of the estimation record"
+            else "the first 75 % of each estimation record"
         ),
         **model.notes,
     }
@@ -406,8 +495,11 @@ def _n_epochs(model):
     return None
 
 
-def fit_model(name, model, ctx, deps, tests, sink=None):
-    """Choose, refit and simulate one model of the zoo (runs in a joblib worker).
+def fit_model(name, model, ctx, deps, sink=None):
+    """Choose and refit one model of the zoo (runs in a joblib worker).
+
+    No test record is read here: the test records are simulated once every
+    choice is sealed (:func:`skhybrid.experiments._sealed.score_tests`).
 
     Parameters
     ----------
@@ -416,11 +508,9 @@ def fit_model(name, model, ctx, deps, tests, sink=None):
     model : ZooModel
         Its candidates and fit.
     ctx : MeasuredContext
-        The system, the estimation record and the settings.
+        The system, the estimation records and the settings.
     deps : dict of str to dict
         The required models' fits (see :func:`choose_and_refit`).
-    tests : dict of str to tuple of ndarray
-        ``{split: (u, y)}``: the test records.
     sink : object or None, default=None
         Where networks report their epochs.
 
@@ -429,8 +519,8 @@ def fit_model(name, model, ctx, deps, tests, sink=None):
     name : str
         ``name``.
     out : dict
-        ``estimator``, ``extras`` (``validation_fit`` where kept), ``predictions``
-        (the free run of each test record; NaN where it failed), ``fit_time``,
+        ``estimator``, ``extras`` (``validation_fit`` where kept),
+        ``predictions`` (empty: no test record is simulated yet), ``fit_time``,
         ``n_epochs``, ``params``, ``warnings``, ``validation_rmse`` and
         ``selection``.
     """
@@ -440,17 +530,8 @@ def fit_model(name, model, ctx, deps, tests, sink=None):
         start = time.perf_counter()
         chosen, validation_fit, selection = choose_and_refit(model, ctx, deps)
         fit_time = time.perf_counter() - start
-        predictions = {}
-        for split, (u, y) in tests.items():
-            pred = np.full(len(y), np.nan)
-            if chosen is None:
-                selection["failed"] = "every candidate's fit failed"
-            else:
-                try:
-                    pred = np.ravel(chosen.simulate(u, y[: ctx.n_init])).astype(float)
-                except SIMULATION_ERRORS as exc:
-                    selection["diverged_on_" + split] = str(exc)
-            predictions[split] = pred
+    if chosen is None:
+        selection["failed"] = "every candidate's fit failed"
     messages = sorted(
         {
             f"{w.category.__name__}: {w.message}"
@@ -462,12 +543,13 @@ def fit_model(name, model, ctx, deps, tests, sink=None):
     if model.keep_validation_fit and validation_fit is not None:
         extras["validation_fit"] = validation_fit
     params = {} if chosen is None else _physical_params(chosen)
-    if name == "physics" and chosen is not None:
-        selection["estimation_rmse"] = ctx.system.scale * float(chosen.rmse_)
+    rmse = getattr(chosen, "rmse_", None) if name == "physics" else None
+    if rmse is not None:
+        selection["estimation_rmse"] = ctx.system.scale * float(rmse)
     return name, {
         "estimator": chosen,
         "extras": extras,
-        "predictions": predictions,
+        "predictions": {},
         "fit_time": fit_time,
         "n_epochs": None if chosen is None else _n_epochs(chosen),
         "params": params,

@@ -77,6 +77,11 @@ class ExperimentResult:
         return [name for name in self.splits if name != "train"]
 
     @property
+    def store_key(self):
+        """The run folder's name for this system's models."""
+        return self.system.name
+
+    @property
     def target_names(self):
         return list(self.splits["train"].target_names)
 
@@ -334,7 +339,7 @@ def _stages(zoo, todo):
     return stages
 
 
-def _dependency(result, folder, system, name, record=None, out=None):
+def _dependency(result, folder, name, record=None, out=None):
     """What a model that requires ``name`` reads of it: its fits and record."""
     if out is not None:
         return {
@@ -342,9 +347,10 @@ def _dependency(result, folder, system, name, record=None, out=None):
             "validation_fit": out.get("extras", {}).get("validation_fit"),
             "fit": result.fits[name],
         }
+    key = result.store_key
     return {
-        "model": folder.load_estimator(system.name, record),
-        "validation_fit": folder.load_estimator(system.name, record, "validation_fit"),
+        "model": folder.load_estimator(key, record),
+        "validation_fit": folder.load_estimator(key, record, "validation_fit"),
         "fit": record["fit"],
     }
 
@@ -365,17 +371,20 @@ def run_experiment(
     Models are fitted with joblib, on the active backend: local processes by
     default, or a Dask cluster inside ``joblib.parallel_config(backend="dask")``.
     A paper system (section 6) is simulated and its zoo scored on interpolative
-    and extrapolative test sets; a measured benchmark's records are loaded from
-    ``data`` and its zoo (candidates chosen on the estimation record's validation
-    tail) is scored on the official test records by free-run simulation. Models
-    that need another's fit (the measured physics' corrections) run after it.
+    and extrapolative test sets. A measured system's estimation records are
+    loaded (a built-in benchmark's from ``data``) and its zoo fitted, every
+    candidate chosen on the records' validation tails; no test record is read
+    here: :func:`~skhybrid.experiments.run_system` seals the selections of its
+    seeds first, then scores the test records. Models that need another's fit
+    (the measured physics' corrections) run after it.
 
     Parameters
     ----------
     system : str, System or MeasuredSystem
         ``"pendulum"``, ``"double-pendulum"``, ``"dc-motor"`` (see
-        ``skhybrid list``), or a measured benchmark: ``"cascaded-tanks"``,
-        ``"emps"``, ``"silverbox"``.
+        ``skhybrid list``), a measured benchmark: ``"cascaded-tanks"``,
+        ``"emps"``, ``"silverbox"``, or a measured system of a user's spec
+        (``MeasuredSystem.from_spec``).
     settings : ExperimentSettings, MeasuredSettings or None, default=None
         Sizes and budgets; ``None`` takes the system's default for ``quick``
         and ``seed``.
@@ -395,12 +404,14 @@ def run_experiment(
         soon as it finishes; models already finished there are loaded, not fitted
         again.
     data : str, Path or None, default=None
-        Folder holding a measured benchmark's files; needed by those only.
+        Folder holding a built-in measured benchmark's files (None fetches
+        them).
 
     Returns
     -------
     result : ExperimentResult or MeasuredResult
-        The fitted models' predictions, scores, parameters and fit records.
+        The fitted models' predictions, scores, parameters and fit records (a
+        measured system's: its selection and fitted models, not yet scored).
     """
     start = time.perf_counter()
     system = get_system(system)
@@ -414,6 +425,7 @@ def run_experiment(
             )
     if measured:
         result = system.new_result(settings, data)
+        system = result.system  # bound to its spec
         zoo = system.model_zoo(settings)
     else:
         splits = system.make_splits(settings)
@@ -423,13 +435,16 @@ def run_experiment(
         result.hull = _hull_shares(splits, settings.n_steps)
         zoo = model_zoo(system, settings)
 
-    done = {} if folder is None else folder.finished(system.name)
+    key = result.store_key
+    done = {} if folder is None else folder.finished(key)
     done = {name: record for name, record in done.items() if name in zoo}
     for name, record in done.items():
         result.fits[name] = record["fit"]
         if record["params"]:
             result.params[name] = record["params"]
-        for split, pred in folder.load_predictions(system.name, record).items():
+        if measured:  # its test records are simulated once the selection is sealed
+            result.estimators[name] = folder.load_estimator(key, record)
+        for split, pred in folder.load_predictions(key, record).items():
             result.predictions[split][name] = pred
 
     # The slowest fits (recurrent and state-space hybrids) first, so parallel
@@ -447,7 +462,7 @@ def run_experiment(
     # The fits that models still to run require, as each finished or was stored.
     needed = {dep for name in todo for dep in getattr(zoo[name], "requires", ())}
     deps = {
-        name: _dependency(result, folder, system, name, record=done[name])
+        name: _dependency(result, folder, name, record=done[name])
         for name in needed
         if name in done
     }
@@ -466,7 +481,7 @@ def run_experiment(
         if not measured:  # a measured model's networks are built in its job
             budget = sum(epoch_budget(zoo[name]) for name in todo) or None
         bars = ProgressBars(
-            len(zoo), system.name, client=client, n_done=len(done), n_epochs=budget
+            len(zoo), key, client=client, n_done=len(done), n_epochs=budget
         )
         if not measured:  # a measured model's networks are built in its job
             for name in todo:
@@ -494,7 +509,7 @@ def run_experiment(
                 for name, out in outputs:
                     _record(result, name, out, folder)
                     if name in needed:
-                        deps[name] = _dependency(result, folder, system, name, out=out)
+                        deps[name] = _dependency(result, folder, name, out=out)
                     if bars is not None:
                         bars.model_done(name, out["fit_time"], out["n_epochs"])
     finally:
@@ -529,6 +544,8 @@ def _record(result, name, out, folder):
         for split, pred in out["predictions"].items()
     }
     result.fits[name] = fit
+    if hasattr(result, "estimators"):
+        result.estimators[name] = out["estimator"]
     if out["params"]:
         result.params[name] = out["params"]
     for split, pred in predictions.items():
@@ -538,7 +555,7 @@ def _record(result, name, out, folder):
             row for split in predictions for row in result.model_rows(split, name)
         ]
         folder.save_model(
-            result.system.name,
+            result.store_key,
             name,
             out["estimator"],
             predictions,

@@ -5,7 +5,10 @@ A run writes into one folder (``skhybrid run --out DIR``)::
     DIR/
       .lock                      held while a run writes here (its pid inside)
       run.json                   the run: systems, seed, settings, command, status
-      models/SYSTEM/MODEL.joblib the fitted model
+      selection.json             a measured run's sealed selection and its hash,
+                                 written before any test record is read
+      models/SYSTEM/MODEL.joblib the fitted model (SYSTEM-seed-S for a measured
+                                 system's seed S)
       models/SYSTEM/MODEL.*.joblib other fits kept with it (a measured physics'
                                  fit on the validation part)
       models/SYSTEM/MODEL.npz    its predictions on every test split
@@ -38,7 +41,7 @@ __all__ = [
 RUN_FORMAT = 1
 
 #: What a finished report leaves in the folder (besides the figures).
-REPORT_FILES = ("results.csv", "results.json", "report.html")
+REPORT_FILES = ("results.csv", "results.json", "report.html", "selection.json")
 
 
 class RunFolderError(Exception):
@@ -273,9 +276,7 @@ class RunFolder:
                     f"(`{manifest.get('command')}`); resume it with that command, "
                     "pass --overwrite to replace it, or choose another --out"
                 )
-        n_finished = sum(
-            len(self.finished(system)) for system in identity.get("systems", [])
-        )
+        n_finished = self.n_finished()
         self.write_manifest(
             {
                 "format": RUN_FORMAT,
@@ -285,6 +286,13 @@ class RunFolder:
             }
         )
         return n_finished
+
+    def n_finished(self):
+        """Finished models in the folder, of every system and seed."""
+        models = self.path / "models"
+        if not models.is_dir():
+            return 0
+        return sum(len(self.finished(d.name)) for d in models.iterdir() if d.is_dir())
 
     def _any_finished(self):
         return any((self.path / "models").glob("*/*.json"))

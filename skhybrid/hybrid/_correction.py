@@ -62,6 +62,27 @@ def _as_2d(a, name):
     return a
 
 
+def _as_records(inputs, outputs):
+    """One record ``(u, y)``, or lists of records, as two lists of 2-D arrays."""
+    if isinstance(inputs, (list, tuple)):
+        if not isinstance(outputs, (list, tuple)) or len(outputs) != len(inputs):
+            raise ValueError(
+                "inputs and outputs must both be one record or lists of as many "
+                f"records; got {type(inputs).__name__} and {type(outputs).__name__}."
+            )
+        U = [_as_2d(u, f"inputs[{i}]") for i, u in enumerate(inputs)]
+        Y = [_as_2d(y, f"outputs[{i}]") for i, y in enumerate(outputs)]
+    else:
+        U, Y = [_as_2d(inputs, "inputs")], [_as_2d(outputs, "outputs")]
+    for i, (u, y) in enumerate(zip(U, Y, strict=True)):
+        if len(u) != len(y):
+            raise ValueError(
+                f"record {i} holds {len(u)} input and {len(y)} output time steps; "
+                "each record's inputs and outputs must be aligned."
+            )
+    return U, Y
+
+
 def _windows(columns, n):
     """Rows ``[c(t-n+1..t) for each column]`` for every t, edge-padded at the start.
 
@@ -116,14 +137,14 @@ class _NARXSimulator(BaseEstimator):
         self.n_steps = n_steps
 
     def fit(self, inputs, outputs):
-        """Fit the one-step regressor on one record.
+        """Fit the one-step regressor on one record or several.
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            The record's inputs.
-        outputs : array-like of shape (n_times, n_outputs)
-            The record's measured outputs.
+        inputs : array-like of shape (n_times, n_inputs), or list of them
+            The inputs of each record.
+        outputs : array-like of shape (n_times, n_outputs), or list of them
+            The measured outputs of each record; windows never span two records.
 
         Returns
         -------
@@ -131,11 +152,13 @@ class _NARXSimulator(BaseEstimator):
             The fitted model.
         """
         _check_n_steps(self.n_steps)
-        u, y = _as_2d(inputs, "inputs"), _as_2d(outputs, "outputs")
+        U, Y = _as_records(inputs, outputs)
         layout = WindowLayout(
-            n_states=y.shape[1], n_inputs=u.shape[1], n_steps=self.n_steps
+            n_states=Y[0].shape[1], n_inputs=U[0].shape[1], n_steps=self.n_steps
         )
-        X, target = layout.make_rows(y, u)
+        rows = [layout.make_rows(y, u) for u, y in zip(U, Y, strict=True)]
+        X = np.vstack([r[0] for r in rows])
+        target = np.concatenate([r[1] for r in rows])
         self.model_ = make_pipeline(StandardScaler(), clone(self.regressor)).fit(
             X, target
         )
@@ -216,15 +239,15 @@ class _PhysicsCorrection(BaseEstimator):
         return np.ravel(self.physics.simulate(inputs, initial))
 
     def fit(self, inputs, outputs):
-        """Simulate the physics over the record and fit the correction.
+        """Simulate the physics over each record and fit the correction.
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            The record's inputs.
-        outputs : array-like of shape (n_times,) or (n_times, 1)
-            The record's measured output; the physics starts from its first
-            ``n_init`` samples.
+        inputs : array-like of shape (n_times, n_inputs), or list of them
+            The inputs of each record.
+        outputs : array-like of shape (n_times,) or (n_times, 1), or list of them
+            The measured output of each record; the physics starts from its
+            first ``n_init`` samples.
 
         Returns
         -------
@@ -232,23 +255,29 @@ class _PhysicsCorrection(BaseEstimator):
             The fitted model.
         """
         _check_n_steps(self.n_steps)
-        u, y = _as_2d(inputs, "inputs"), _as_2d(outputs, "outputs")
-        if y.shape[1] != 1:
-            raise ValueError(f"outputs must hold one output; got {y.shape[1]} columns.")
-        y_phys = self._physics_run(u, y[: self.n_init])
-        return self.fit_on_physics(u, y, y_phys)
+        U, Y = _as_records(inputs, outputs)
+        for y in Y:
+            if y.shape[1] != 1:
+                raise ValueError(
+                    f"outputs must hold one output; got {y.shape[1]} columns."
+                )
+        Y_phys = [
+            self._physics_run(u, y[: self.n_init]) for u, y in zip(U, Y, strict=True)
+        ]
+        return self.fit_on_physics(U, Y, Y_phys)
 
     def fit_on_physics(self, inputs, outputs, physics_outputs):
-        """Fit the correction given the physics' simulated output on the record.
+        """Fit the correction given the physics' simulated output on each record.
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            The record's inputs.
-        outputs : array-like of shape (n_times,) or (n_times, 1)
-            The record's measured output.
-        physics_outputs : array-like of shape (n_times,) or (n_times, 1)
-            The physics' free run over the record.
+        inputs : array-like of shape (n_times, n_inputs), or list of them
+            The inputs of each record.
+        outputs : array-like of shape (n_times,) or (n_times, 1), or list of them
+            The measured output of each record.
+        physics_outputs : array-like of shape (n_times,) or (n_times, 1), or \
+list of them
+            The physics' free run over each record.
 
         Returns
         -------
@@ -256,10 +285,20 @@ class _PhysicsCorrection(BaseEstimator):
             The fitted model.
         """
         _check_n_steps(self.n_steps)
-        u = _as_2d(inputs, "inputs")
-        X = _windows([physics_outputs, *u.T], self.n_steps)
+        U, Y = _as_records(inputs, outputs)
+        if not isinstance(physics_outputs, (list, tuple)):
+            physics_outputs = [physics_outputs]
+        X = np.vstack(
+            [
+                _windows([p, *u.T], self.n_steps)
+                for u, p in zip(U, physics_outputs, strict=True)
+            ]
+        )
+        target = np.concatenate(
+            [np.ravel(y) - np.ravel(p) for y, p in zip(Y, physics_outputs, strict=True)]
+        )
         self.model_ = make_pipeline(StandardScaler(), clone(self.regressor)).fit(
-            X, np.ravel(outputs) - np.ravel(physics_outputs)
+            X, target
         )
         return self
 

@@ -1,0 +1,357 @@
+"""The sealed test: every seed's selection is frozen and hashed before any test record.
+
+A measured run fits the candidate family at each seed (each seed a full
+selection, :func:`~skhybrid.experiments.run_experiment`), then writes
+``selection.json``: the spec's description, every candidate's validation RMSE,
+every choice and the chosen model of each seed, with the SHA-256 of all of it.
+Only then are the test records read (:meth:`SystemSpec.test_records`) and every
+fitted model simulated on them (:func:`score_tests`). The report prints the hash
+beside the test figures, so a reader can check that the figures come from the
+selection the file records, made before the test was seen.
+"""
+
+import hashlib
+import json
+import time
+
+import numpy as np
+
+from skhybrid.experiments._measured_zoo import simulate_records
+
+__all__ = [
+    "SELECTION_FILE",
+    "MeasuredRun",
+    "describe_spec",
+    "run_seeds",
+    "score_tests",
+    "seal",
+]
+
+#: The frozen selection, written in the run folder before any test record is read.
+SELECTION_FILE = "selection.json"
+
+
+def describe_spec(spec, U):
+    """What of a spec the selection depends on, as JSON-ready data.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The system.
+    U : list of ndarray
+        Its estimation records' inputs (their lengths are recorded).
+
+    Returns
+    -------
+    description : dict
+        Name, sample period, ``n_init``, record lengths, the physics, the
+        candidate family and the notes.
+    """
+    physics = spec.physics
+    return {
+        "name": spec.name,
+        "dt": spec.sample_period(),
+        "n_init": spec.n_init,
+        "record_lengths": [len(u) for u in U],
+        "physics": repr(physics)
+        if hasattr(physics, "get_params")
+        else (getattr(physics, "__qualname__", repr(physics))),
+        "segments": spec.segments if spec.segments == "auto" else list(spec.segments),
+        "hybrids": spec.hybrids
+        if spec.hybrids in ("auto", None)
+        else {
+            k: {p: repr(v) for p, v in settings.items()}
+            for k, settings in spec.hybrids.items()
+        },
+        "hybrid_records": spec.hybrid_records,
+        "notes": spec.notes,
+    }
+
+
+def _canonical(value):
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+
+
+def seal(results, folder_path):
+    """Write the frozen selection of every seed and its hash; return both.
+
+    Parameters
+    ----------
+    results : list of MeasuredResult
+        One per seed, every model fitted and chosen; no test record read.
+    folder_path : Path or None
+        The run folder (``selection.json`` goes there); None writes nothing.
+
+    Returns
+    -------
+    sealed : dict
+        ``sha256`` and ``selection`` (what was hashed).
+    """
+    system = results[0].system
+    selection = {
+        "system": describe_spec(system.spec, results[0].train[0]),
+        "seeds": [r.selection() for r in results],
+    }
+    digest = hashlib.sha256(_canonical(selection).encode()).hexdigest()
+    sealed = {"sha256": digest, "selection": selection}
+    if folder_path is not None:
+        from skhybrid.experiments._store import _write_atomic
+
+        text = json.dumps(
+            {"sha256": digest, "hashed": "canonical JSON of 'selection'", **sealed},
+            indent=1,
+            default=str,
+        )
+        _write_atomic(folder_path / SELECTION_FILE, lambda p: p.write_text(text))
+    return sealed
+
+
+def score_tests(result, tests):
+    """Simulate every fitted model of one seed on the test records.
+
+    Parameters
+    ----------
+    result : MeasuredResult
+        A sealed seed's result (``estimators`` fitted).
+    tests : dict of str to tuple of ndarray
+        ``{split: (u, y)}``, read after sealing.
+    """
+    result.tests = dict(tests)
+    result.predictions = {split: {} for split in tests}
+    for split, (u, y) in tests.items():
+        for model in result.fits:
+            estimator = result.estimators.get(model)
+            if estimator is None:
+                pred = np.full(len(y), np.nan)
+            else:
+                (pred,), (error,) = simulate_records(estimator, [u], [y], result.n_init)
+                if error is not None:
+                    result.fits[model].setdefault("selection", {})
+                    result.fits[model]["selection"]["diverged_on_" + split] = error
+            result.predictions[split][model] = pred
+    if "test_arrow_full" in tests:
+        from skhybrid.experiments._measured import _hull_exit
+
+        first, count = _hull_exit(result.train, tests["test_arrow_full"], result.n_init)
+        result.hull = {"test_arrow_full": {"first_outside": first, "n_outside": count}}
+    result.rows = [
+        row
+        for split in result.predictions
+        for model in result.predictions[split]
+        for row in result.model_rows(split, model)
+    ]
+
+
+def _spread(values):
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return {
+            "mean": None,
+            "std": None,
+            "min": None,
+            "max": None,
+            "by_seed": values.tolist(),
+        }
+    return {
+        "mean": float(finite.mean()),
+        "std": float(finite.std(ddof=1)) if finite.size > 1 else 0.0,
+        "min": float(finite.min()),
+        "max": float(finite.max()),
+        "n_failed": int(values.size - finite.size),
+        "by_seed": [None if not np.isfinite(v) else float(v) for v in values],
+    }
+
+
+class MeasuredRun:
+    """A measured system's run over its seeds: selections, seal and test scores.
+
+    Parameters
+    ----------
+    results : list of MeasuredResult
+        One per seed, scored on the test records.
+    sealed : dict
+        :func:`seal`'s ``sha256`` and ``selection``.
+
+    Attributes
+    ----------
+    system : MeasuredSystem
+        The system.
+    settings : MeasuredSettings
+        The first seed's settings (``quick``).
+    seeds : list of int
+        The seeds, each a full selection.
+    rows : list of dict
+        ``results.csv`` rows of every seed.
+    wall_time : float
+        Seconds for the whole run.
+    """
+
+    def __init__(self, results, sealed):
+        self.results = list(results)
+        self.sealed = sealed
+        self.system = self.results[0].system
+        self.settings = self.results[0].settings
+        self.seeds = [r.settings.seed for r in self.results]
+        self.rows = [row for r in self.results for row in r.rows]
+        self.wall_time = float("nan")
+
+    @property
+    def sha256(self):
+        return self.sealed["sha256"]
+
+    @property
+    def test_splits(self):
+        return self.results[0].test_splits
+
+    def chosen(self):
+        """``{seed: model}`` chosen on validation at each seed."""
+        return {r.settings.seed: r.selected_model() for r in self.results}
+
+    def selected_model(self):
+        """The models chosen at the seeds, as one line."""
+        chosen = self.chosen()
+        names = sorted(set(chosen.values()), key=str)
+        if len(names) == 1:
+            return f"{names[0]} (at every seed)"
+        return ", ".join(f"seed {s}: {m}" for s, m in chosen.items())
+
+    def test_summary(self):
+        """Test RMSE over seeds: ``{split: {model: spread}}`` and the chosen model's.
+
+        Returns
+        -------
+        by_model : dict
+            ``{split: {model: {mean, std, min, max, n_failed, by_seed}}}``.
+        chosen : dict
+            ``{split: spread}`` of each seed's chosen model.
+        """
+        by_model, chosen = {}, {}
+        for split in self.test_splits:
+            models = list(dict.fromkeys(m for r in self.results for m in r.fits))
+            by_model[split] = {
+                m: _spread(
+                    [
+                        r.test_rmse(split, m) if m in r.predictions[split] else np.nan
+                        for r in self.results
+                    ]
+                )
+                for m in models
+            }
+            chosen[split] = _spread(
+                [
+                    r.test_rmse(split, r.selected_model())
+                    if r.selected_model() is not None
+                    else np.nan
+                    for r in self.results
+                ]
+            )
+        return by_model, chosen
+
+    def summary(self):
+        """The system's entry of ``results.json``.
+
+        Returns
+        -------
+        summary : dict
+            The selection's hash, the seeds, the chosen model of each seed and
+            its test RMSE over seeds (mean, spread, each seed's), every model's
+            test RMSE over seeds, validation RMSE by seed, the published
+            figures, the physics' parameters by seed, wall time and rows.
+        """
+        by_model, chosen = self.test_summary()
+        first = self.results[0]
+        return {
+            "title": self.system.title,
+            "unit": self.system.unit,
+            "quick": self.settings.quick,
+            "seeds": self.seeds,
+            "selection_sha256": self.sha256,
+            "selection_file": SELECTION_FILE,
+            "n_init": first.n_init,
+            "dt": first.dt,
+            "n_train": [len(u) for u in first.train[0]],
+            "chosen_model": {str(s): m for s, m in self.chosen().items()},
+            "chosen_test_rmse": chosen,
+            "test_rmse": by_model,
+            "validation_rmse": {
+                str(r.settings.seed): r.validation_rmse() for r in self.results
+            },
+            "published": {
+                split: {k: {"rmse": v, "source": s} for k, (v, s) in pub.items()}
+                for split, pub in self.system.published().items()
+            },
+            "physics_params": {
+                str(r.settings.seed): {
+                    k: p["value"] for k, p in r.params.get("physics", {}).items()
+                }
+                for r in self.results
+            },
+            "hull": first.hull,
+            "notes": self.system.spec.notes,
+            "fit_time_s": {
+                str(r.settings.seed): {k: f.get("fit_time") for k, f in r.fits.items()}
+                for r in self.results
+            },
+            "wall_time_s": self.wall_time,
+            "fits": {str(r.settings.seed): r.fits for r in self.results},
+            "results": self.rows,
+        }
+
+
+def run_seeds(
+    system,
+    *,
+    seeds,
+    quick=False,
+    n_jobs=1,
+    progress=False,
+    folder=None,
+    data=None,
+):
+    """Select at every seed, seal, then read and score the test records.
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The system.
+    seeds : sequence of int
+        Each seed is a full selection.
+    quick : bool, default=False
+        Shorter fits and fewer candidates.
+    n_jobs : int, default=1
+        Models fitted in parallel.
+    progress : bool, default=False
+        Progress bars on standard error.
+    folder : RunFolder or None, default=None
+        The run folder (finished models kept, ``selection.json`` written).
+    data : str or Path or None, default=None
+        A built-in benchmark's data folder; None fetches its files.
+
+    Returns
+    -------
+    run : MeasuredRun
+        Every seed's selection and test scores, and the seal.
+    """
+    from skhybrid.experiments._runner import run_experiment
+
+    start = time.perf_counter()
+    results = [
+        run_experiment(
+            system,
+            settings=system.default_settings(quick, seed),
+            n_jobs=n_jobs,
+            progress=progress,
+            folder=folder,
+            data=data,
+        )
+        for seed in seeds
+    ]
+    sealed = seal(results, None if folder is None else folder.path)
+    # The first read of the test records: after the selection file is written.
+    tests = results[0].system.spec.test_records()
+    for result in results:
+        score_tests(result, tests)
+    run = MeasuredRun(results, sealed)
+    run.wall_time = time.perf_counter() - start
+    return run

@@ -1,0 +1,469 @@
+"""A measured system described once: :class:`SystemSpec`.
+
+A user's machine and the built-in benchmarks take the same path: a spec names
+the estimation records, the sample period, the initialisation window, the
+physics and (optionally) the test records; :func:`~skhybrid.experiments.run_system`
+fits the default candidate family on it, chooses on validation tails of the
+estimation records, seals the selection and only then simulates the test
+records.
+"""
+
+import numbers
+from dataclasses import dataclass, field
+
+import numpy as np
+from sklearn.base import clone
+
+__all__ = ["SystemSpec", "as_records"]
+
+#: The default candidate family's initial horizon of the state-space hybrid
+#: (samples); the grid is this and four times it, kept below the records' length.
+DEFAULT_HORIZON = 50
+
+
+def _is_frame(obj):
+    return hasattr(obj, "columns") and hasattr(obj, "index")
+
+
+def _frame_record(frame, inputs, outputs, where):
+    missing = [c for c in (*inputs, *outputs) if c not in frame.columns]
+    if missing:
+        raise ValueError(
+            f"{where} has no column(s) {missing}; its columns are "
+            f"{list(frame.columns)} (inputs={list(inputs)}, outputs={list(outputs)})."
+        )
+    u = frame[list(inputs)].to_numpy(dtype=float)
+    y = frame[list(outputs)].to_numpy(dtype=float)
+    return u, y
+
+
+def _frame_dt(frame, where):
+    """The sample period of a DataFrame's index (seconds), or None if not uniform."""
+    index = frame.index
+    if len(index) < 2:
+        return None
+    if hasattr(index, "total_seconds"):  # TimedeltaIndex
+        steps = np.diff(index.total_seconds())
+    elif np.issubdtype(np.asarray(index).dtype, np.datetime64):
+        steps = np.diff(np.asarray(index, dtype="datetime64[ns]")).astype(float) / 1e9
+    elif np.issubdtype(np.asarray(index).dtype, np.number):
+        steps = np.diff(np.asarray(index, dtype=float))
+    else:
+        return None
+    if not np.all(np.isfinite(steps)) or steps.min() <= 0:
+        raise ValueError(f"{where}'s time index must increase; it does not.")
+    if np.ptp(steps) > 1e-6 * steps.mean():
+        raise ValueError(
+            f"{where}'s time index is not uniformly sampled (steps from "
+            f"{steps.min():.6g} to {steps.max():.6g} s); resample it first."
+        )
+    return float(steps.mean())
+
+
+def as_records(records, *, inputs=None, outputs=None, name="records"):
+    """Records in any of the spec's forms as lists of 2-D float arrays.
+
+    Parameters
+    ----------
+    records : tuple, DataFrame, or list of them
+        One record ``(u, y)`` (arrays of shape ``(n_times,)`` or ``(n_times,
+        n)``) or a pandas DataFrame, or a list of such records (their lengths
+        may differ).
+    inputs, outputs : list of str or None, default=None
+        The DataFrames' input and output columns (needed for DataFrames).
+    name : str, default="records"
+        The parameter's name in error messages.
+
+    Returns
+    -------
+    U, Y : list of ndarray of shape (n_times_i, n_inputs) and (n_times_i, n_outputs)
+        Inputs and outputs of each record.
+    dts : list of float or None
+        Each DataFrame's sample period read from its time index (None for
+        arrays).
+    """
+    if _is_frame(records) or (
+        isinstance(records, tuple) and len(records) == 2 and not _is_frame(records[0])
+    ):
+        records = [records]
+    if not isinstance(records, (list, tuple)) or not records:
+        raise TypeError(
+            f"{name} must be a (u, y) pair, a DataFrame, or a non-empty list of "
+            f"them; got {type(records).__name__}."
+        )
+    U, Y, dts = [], [], []
+    for i, record in enumerate(records):
+        where = f"{name}[{i}]"
+        if _is_frame(record):
+            if not inputs or not outputs:
+                raise ValueError(
+                    f"{where} is a DataFrame: name its columns with inputs=[...] and "
+                    f"outputs=[...]; got inputs={inputs!r}, outputs={outputs!r}."
+                )
+            u, y = _frame_record(record, inputs, outputs, where)
+            dts.append(_frame_dt(record, where))
+        elif isinstance(record, (tuple, list)) and len(record) == 2:
+            u, y = (np.asarray(a, dtype=float) for a in record)
+            dts.append(None)
+        else:
+            raise TypeError(
+                f"{where} must be a (u, y) pair or a DataFrame; got "
+                f"{type(record).__name__}."
+            )
+        u = u[:, None] if u.ndim == 1 else u
+        y = y[:, None] if y.ndim == 1 else y
+        if u.ndim != 2 or y.ndim != 2 or len(u) != len(y):
+            raise ValueError(
+                f"{where} must hold aligned inputs and outputs of shape (n_times,) "
+                f"or (n_times, n); got {u.shape} and {y.shape}."
+            )
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+            raise ValueError(f"{where} holds NaN or infinite values.")
+        if U and (u.shape[1] != U[0].shape[1] or y.shape[1] != Y[0].shape[1]):
+            raise ValueError(
+                f"{where} has {u.shape[1]} input and {y.shape[1]} output columns; "
+                f"{name}[0] has {U[0].shape[1]} and {Y[0].shape[1]}."
+            )
+        U.append(u)
+        Y.append(y)
+    return U, Y, dts
+
+
+@dataclass
+class SystemSpec:
+    """A measured system, described once: records, sample period, physics, tests.
+
+    :func:`~skhybrid.experiments.run_system` (or ``skhybrid run --system
+    module:object``) fits the default candidate family on it: the physics by
+    simulation error (multiple shooting over segments), a linear ARX and a dense
+    NARX as black-box baselines, the physics with a linear and a dense static
+    correction, and state-space hybrids over a small horizon grid. Every choice
+    (segment length, windows, horizon, the model quoted) is made on the last
+    25 % of each estimation record, the selection is sealed (written with its
+    hash), and only then are the test records read and simulated.
+
+    Parameters
+    ----------
+    name : str
+        The system's name (the run folder's and the report's).
+    records : tuple, DataFrame, list of them, or callable
+        The estimation records: one ``(u, y)`` pair, a DataFrame, or a list of
+        them (lengths may differ); or a function of no argument returning
+        them. Each record's first ``n_init`` samples start its free run.
+    physics : estimator or callable
+        The physics: an unfitted :class:`~skhybrid.domain.StateSpaceModel`
+        (fitted by :meth:`~skhybrid.domain.StateSpaceModel.fit_simulation`),
+        any estimator with ``fit(inputs, outputs)`` on lists of records and
+        ``simulate(inputs, initial)`` (cloned for each fit), or a callable
+        ``physics(U, Y, dt)`` returning one (a start computed from the data).
+    n_init : int
+        Samples of the initialisation window: every free run (validation and
+        test) starts from a record's first ``n_init`` measured outputs.
+    dt : float or None, default=None
+        Sample period in seconds; None reads it from the DataFrames' uniform
+        time index.
+    tests : dict or callable or None, default=None
+        ``{name: record}`` of test records, or a function of no argument
+        returning it; read only after the selection is sealed.
+    inputs, outputs : list of str or None, default=None
+        The DataFrames' input and output columns.
+    title : str, default=""
+        The report's title (default: ``name``).
+    unit : str, default=""
+        Unit of the reported RMSE.
+    scale : float, default=1.0
+        Factor from the records' units to ``unit`` (``1e3`` for V to mV).
+    published : dict, default={}
+        ``{test name: {label: (rmse, source)}}`` shown beside the figures.
+    physics_inputs : callable or None, default=None
+        Maps a record's inputs to the physics' (None: the same).
+    segments : "auto" or tuple, default="auto"
+        Samples per segment of the physics' multiple-shooting fit to try
+        (``None`` in the tuple: whole records). ``"auto"``: whole records and
+        a quarter and a sixteenth of the shortest fitting part, where longer
+        than ten initialisation windows.
+    hybrids : "auto", dict or None, default="auto"
+        The state-space hybrids to try, ``{label: StateSpaceHybridRegressor
+        parameters}``; ``"auto"``: horizons ``T`` of 50 and 200 samples (below
+        half the shortest fitting part), a (32, 32) correction of every state;
+        None: no state-space hybrid.
+    hybrid_records : int, default=4
+        Pieces the hybrid's training records are cut into (sub-sequences are
+        drawn within pieces).
+    notes : str, default=""
+        Why the spec departs from the default family, shown in the report.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.experiments import SystemSpec
+    >>> from skhybrid.domain import StateSpaceModel
+    >>> def step(x, u, *, xp, a, b):
+    ...     return a * x + b * u
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((300, 1))
+    >>> spec = SystemSpec(
+    ...     "first-order",
+    ...     records=[(u, u)],
+    ...     physics=StateSpaceModel(step, {"a": 0.5, "b": 1.0}, time="discrete"),
+    ...     n_init=5,
+    ...     dt=0.1,
+    ... )
+    >>> U, Y = spec.estimation_records()
+    >>> len(U), U[0].shape
+    (1, (300, 1))
+    """
+
+    name: str
+    records: object
+    physics: object
+    n_init: int
+    dt: float = None
+    tests: object = None
+    inputs: list = None
+    outputs: list = None
+    title: str = ""
+    unit: str = ""
+    scale: float = 1.0
+    published: dict = field(default_factory=dict)
+    physics_inputs: object = None
+    segments: object = "auto"
+    hybrids: object = "auto"
+    hybrid_records: int = 4
+    notes: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"name must be a non-empty str; got name={self.name!r}.")
+        n_init = self.n_init
+        if isinstance(n_init, bool) or not isinstance(n_init, numbers.Integral):
+            raise TypeError(f"n_init must be an int >= 1; got n_init={n_init!r}.")
+        if n_init < 1:
+            raise ValueError(f"n_init must be an int >= 1; got n_init={n_init!r}.")
+        if self.dt is not None and not (
+            isinstance(self.dt, numbers.Real) and np.isfinite(self.dt) and self.dt > 0
+        ):
+            raise ValueError(f"dt must be a positive number; got dt={self.dt!r}.")
+        if not (isinstance(self.scale, numbers.Real) and self.scale > 0):
+            raise ValueError(f"scale must be positive; got scale={self.scale!r}.")
+        physics = self.physics
+        is_factory = callable(physics) and not hasattr(physics, "get_params")
+        if not is_factory and not (
+            hasattr(physics, "fit") and hasattr(physics, "simulate")
+        ):
+            raise TypeError(
+                "physics must be an estimator with fit and simulate (a "
+                "StateSpaceModel, say) or a callable physics(U, Y, dt) "
+                f"returning one; got {type(physics).__name__}."
+            )
+        if self.segments != "auto":
+            for s in self.segments:
+                if s is not None and (
+                    isinstance(s, bool) or not isinstance(s, numbers.Integral) or s < 1
+                ):
+                    raise ValueError(
+                        "segments must be 'auto' or a tuple of ints >= 1 (or None); "
+                        f"got segments={self.segments!r}."
+                    )
+        if not (self.hybrids in ("auto", None) or isinstance(self.hybrids, dict)):
+            raise TypeError(
+                "hybrids must be 'auto', None or a dict of label to settings; "
+                f"got hybrids={self.hybrids!r}."
+            )
+        if self.tests is not None and not (
+            callable(self.tests) or isinstance(self.tests, dict)
+        ):
+            raise TypeError(
+                "tests must be a dict of name to record, a callable returning it, "
+                f"or None; got {type(self.tests).__name__}."
+            )
+
+    # -- records ----------------------------------------------------------------
+    def estimation_records(self):
+        """The estimation records, checked: ``(U, Y)`` lists of 2-D arrays.
+
+        Returns
+        -------
+        U, Y : list of ndarray
+            Inputs and outputs of each record.
+
+        Raises
+        ------
+        ValueError
+            A record too short for its initialisation window and a validation
+            tail, or no sample period (``dt``).
+        """
+        records = self.records() if callable(self.records) else self.records
+        U, Y, dts = as_records(
+            records, inputs=self.inputs, outputs=self.outputs, name="records"
+        )
+        self._dt = self._check_dt(dts)
+        shortest = min(len(u) for u in U)
+        # A tail of 25 % must hold its own window and some samples to score.
+        if shortest < 8 * self.n_init:
+            raise ValueError(
+                f"every estimation record needs at least 8 * n_init = "
+                f"{8 * self.n_init} samples (a validation tail of 25 % holds "
+                f"n_init and more); the shortest holds {shortest}."
+            )
+        return U, Y
+
+    def sample_period(self):
+        """The sample period ``dt``: given, or read from the records' time index.
+
+        Returns
+        -------
+        dt : float
+            Seconds between samples.
+        """
+        if self.dt is not None:
+            return float(self.dt)
+        if getattr(self, "_dt", None) is None:
+            self.estimation_records()
+        return self._dt
+
+    def _check_dt(self, dts):
+        read = [d for d in dts if d is not None]
+        if read and self.dt is not None:
+            for d in read:
+                if abs(d - self.dt) > 1e-6 * self.dt:
+                    raise ValueError(
+                        f"dt={self.dt!r} disagrees with a record's time index "
+                        f"(sample period {d:.6g} s)."
+                    )
+        if self.dt is not None:
+            return float(self.dt)
+        if not read:
+            raise ValueError(
+                "dt is None and the records carry no time index: give dt=..."
+            )
+        return float(np.mean(read))
+
+    def test_records(self):
+        """The test records, ``{name: (u, y)}`` (read now, never before sealing).
+
+        Returns
+        -------
+        tests : dict of str to tuple of ndarray
+            ``(u, y)`` of each test record, 2-D; empty without tests.
+        """
+        tests = self.tests() if callable(self.tests) else self.tests
+        if tests is None:
+            return {}
+        if not isinstance(tests, dict):
+            raise TypeError(
+                f"tests must give a dict of name to record; got {type(tests).__name__}."
+            )
+        out = {}
+        for key, record in tests.items():
+            U, Y, _ = as_records(
+                [record],
+                inputs=self.inputs,
+                outputs=self.outputs,
+                name=f"tests[{key!r}]",
+            )
+            if len(U[0]) <= self.n_init:
+                raise ValueError(
+                    f"tests[{key!r}] holds {len(U[0])} samples, not more than "
+                    f"n_init={self.n_init}."
+                )
+            out[str(key)] = (U[0], Y[0])
+        return out
+
+    # -- the candidate family ---------------------------------------------------
+    def make_physics(self, U, Y, dt):
+        """An unfitted physics for the records ``U, Y`` (a clone, or the callable's).
+
+        Parameters
+        ----------
+        U, Y : list of ndarray
+            The records it will be fitted on (in the physics' inputs).
+        dt : float
+            Sample period.
+
+        Returns
+        -------
+        physics : estimator
+            Unfitted.
+        """
+        if callable(self.physics) and not hasattr(self.physics, "get_params"):
+            return self.physics(U, Y, dt)
+        return clone(self.physics)
+
+    def segment_candidates(self, fit_lengths):
+        """Segment lengths of the physics' fit to try on fitting parts of these lengths.
+
+        Parameters
+        ----------
+        fit_lengths : list of int
+            Lengths of the records the candidates are fitted on.
+
+        Returns
+        -------
+        segments : tuple
+            ``None`` (whole records) and lengths in samples.
+        """
+        if self.segments != "auto":
+            return tuple(self.segments)
+        shortest = min(fit_lengths)
+        lengths = [shortest // 4, shortest // 16]
+        return (None, *[s for s in lengths if s > 10 * self.n_init])
+
+    def hybrid_candidates(self, fit_lengths):
+        """The state-space hybrids to try, ``{label: parameters}``.
+
+        Parameters
+        ----------
+        fit_lengths : list of int
+            Lengths of the records the candidates are fitted on.
+
+        Returns
+        -------
+        candidates : dict of str to dict
+            Empty where ``hybrids`` is None.
+        """
+        if self.hybrids is None:
+            return {}
+        if self.hybrids != "auto":
+            return dict(self.hybrids)
+        longest_piece = max(fit_lengths) // max(1, self.hybrid_records)
+        out = {}
+        for T in (DEFAULT_HORIZON, 4 * DEFAULT_HORIZON):
+            T = min(T, longest_piece // 2 - self.n_init)
+            if T < 2 or f"T={T}, (32, 32)" in out:
+                continue
+            out[f"T={T}, (32, 32)"] = hybrid_settings(
+                T, (32, 32), stride=max(1, T // 2)
+            )
+        return out
+
+
+def hybrid_settings(horizon, hidden, **extra):
+    """Settings of one state-space hybrid candidate of the family.
+
+    Parameters
+    ----------
+    horizon : int
+        Samples per simulated sub-sequence ``T``.
+    hidden : tuple of int
+        The correction network's hidden layers.
+    **extra
+        Other :class:`~skhybrid.hybrid.StateSpaceHybridRegressor` parameters.
+
+    Returns
+    -------
+    settings : dict
+        Parameters of the hybrid.
+    """
+    settings = {
+        "horizon": horizon,
+        "hidden_layer_sizes": hidden,
+        "encoder_hidden_layer_sizes": (32,),
+        "lr": 3e-3,
+        "batch_size": 64,
+        "max_epochs": 40,
+        "patience": 5,
+        "validation_fraction": 0.2,
+    }
+    settings.update(extra)
+    return settings

@@ -481,7 +481,11 @@ def run_experiment(
         if not measured:  # a measured model's networks are built in its job
             budget = sum(epoch_budget(zoo[name]) for name in todo) or None
         bars = ProgressBars(
-            len(zoo), key, client=client, n_done=len(done), n_epochs=budget
+            len(zoo),
+            f"{system.name} seed {settings.seed}" if measured else system.name,
+            client=client,
+            n_done=len(done),
+            n_epochs=budget,
         )
         if not measured:  # a measured model's networks are built in its job
             for name in todo:

@@ -146,11 +146,12 @@ class _Constant:
 
 
 def _constant_fit(calls):
-    def fit(candidate, u, y, ctx, deps, start):
-        calls.append((candidate, len(u), start))
+    def fit(candidate, U, Y, ctx, deps, start):
+        n = sum(len(u) for u in U)
+        calls.append((candidate, n, start))
         if candidate == "bad":
             raise FloatingPointError("diverged")
-        return _Constant(candidate, len(u))
+        return _Constant(candidate, n)
 
     return fit
 
@@ -159,7 +160,9 @@ def _constant_fit(calls):
 def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
     u = np.zeros((400, 1))
     y = np.full((400, 1), 2.0)
-    ctx = MeasuredContext(EMPS(), u, y, 10, 1e-3, True, 0)
+    # Two records of different lengths: each has its own validation tail.
+    U, Y = [u, u[:240]], [y, y[:240]]
+    ctx = MeasuredContext(EMPS(), U, Y, 10, 1e-3, True, 0)
     calls = []
     model = ZooModel(
         _constant_fit(calls),
@@ -169,14 +172,15 @@ def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
         choice="level",
     )
     chosen, on_part, selection = choose_and_refit(model, ctx, {})
-    (u_a, _), _ = _tail_split(u, y)
-    assert on_part.level == 1.9 and on_part.fitted_on == len(u_a)
+    (U_a, _), (U_b, _) = _tail_split(U, Y)
+    assert [len(u) for u in U_a] == [300, 180] and [len(u) for u in U_b] == [100, 60]
+    assert on_part.level == 1.9 and on_part.fitted_on == 480
     assert selection["level"] == 1.9
     assert selection["validation_rmse_by_candidate"]["bad"] == float("inf")
     assert_allclose(selection["validation_rmse"], EMPS.scale * 0.1)
     if refit:
-        assert chosen.fitted_on == len(u) and calls[-1] == (1.9, len(u), on_part)
-        assert selection["fitted_on"] == "the whole estimation record"
+        assert chosen.fitted_on == 640 and calls[-1] == (1.9, 640, on_part)
+        assert selection["fitted_on"] == "the whole estimation records"
     else:
         assert chosen is on_part and len(calls) == 4
-        assert selection["fitted_on"] == "the first 75 % of the estimation record"
+        assert selection["fitted_on"] == "the first 75 % of each estimation record"

@@ -23,6 +23,7 @@ from sklearn.utils import Bunch
 from skhybrid import cli
 from skhybrid.cli import main
 from skhybrid.experiments import _measured, _measured_zoo, _runner
+from skhybrid.experiments import SystemSpec
 from skhybrid.experiments._measured import EMPS, MEASURED_SYSTEMS
 from skhybrid.experiments._measured_physics import emps_physics
 
@@ -48,17 +49,24 @@ def _axis_records(n=1600, seed=0):
 class SyntheticAxis(EMPS):
     """The EMPS benchmark on a simulated axis, with a four-model zoo."""
 
-    segments = (None,)
+    hybrids = False
 
-    def load(self, data, quick=False):
+    def make_spec(self, data=None, quick=False):
+        if data is not None and not Path(data).is_dir():
+            raise FileNotFoundError(f"no EMPS files in {data}")
         train, tests = _axis_records()
-        return train, tests, Bunch(n_init=20, dt=1e-3)
-
-    def physics(self, u, y, dt, quick=False):
-        return emps_physics(dt, max_nfev=8)
-
-    def hybrid_candidates(self, quick=False):
-        return {}
+        return SystemSpec(
+            "emps",
+            records=[train],
+            physics=emps_physics(1e-3, max_nfev=8),
+            n_init=20,
+            dt=1e-3,
+            tests=lambda: tests,
+            unit="mm",
+            scale=1e3,
+            segments=(None,),
+            hybrids=None,
+        )
 
     def model_zoo(self, settings):
         full = super().model_zoo(settings)
@@ -108,8 +116,10 @@ def no_training(monkeypatch):
 
 
 def _run(out, *extra, data=None):
-    data = data or out.parent / "data"
+    data = data or out.parent
     argv = ["run", "emps", "--quick", "--data", str(data), "--out", str(out)]
+    if "--seed" not in extra and "--seeds" not in extra:
+        extra = (*extra, "--seeds", "0")  # one selection: seconds, not minutes
     return main([*argv, "--no-progress", "--n-jobs", "1", *extra])
 
 
@@ -122,7 +132,7 @@ def _table(out):
         ]
 
 
-def _finished(out, system="emps"):
+def _finished(out, system="emps-seed-0"):
     folder = Path(out) / "models" / system
     return sorted(json.loads(p.read_text())["model"] for p in folder.glob("*.json"))
 
@@ -270,7 +280,7 @@ def test_data_or_noise_type_where_they_mean_nothing_is_refused(tmp_path, capsys)
     assert main(argv) == 2
     _one_error_line(capsys, "--data", "pendulum is simulated")
     assert _run(tmp_path / "r", "--noise-type", "process") == 2
-    _one_error_line(capsys, "--noise-type", "measured benchmark")
+    _one_error_line(capsys, "--noise-type", "measured system")
     assert not (tmp_path / "r").exists()
 
 
@@ -288,10 +298,10 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     assert _run(out) == 130
     err = capsys.readouterr().err
     assert "interrupted: 2 of 4 models are finished and kept" in err
-    assert f"--out {out} --no-progress --n-jobs 1 --resume" in err
+    assert f"--out {out} --no-progress --n-jobs 1 --seeds 0 --resume" in err
     assert "Traceback" not in err
     assert _finished(out) == ["linear ARX", "physics"]  # not the dense NARX
-    assert (out / "models" / "emps" / "physics.validation-fit.joblib").is_file()
+    assert (out / "models" / "emps-seed-0" / "physics.validation-fit.joblib").is_file()
     assert not (out / "results.csv").exists()
     assert not (out / ".lock").exists()
 
@@ -321,15 +331,13 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     assert {row["model"] for row in _table(out)} == set(TINY)
 
     summary = json.loads((out / "results.json").read_text())["systems"]["emps"]
-    validation = summary["validation_rmse"]
-    assert summary["selected_model"] == min(validation, key=validation.get)
-    assert summary["selection"]["physics"]["segment"] is None
-    assert (
-        summary["selection"]["dense NARX"]["n"]
-        == (summary["selection"]["linear ARX"]["n"])
-    )
+    validation = summary["validation_rmse"]["0"]
+    assert summary["chosen_model"]["0"] == min(validation, key=validation.get)
+    selection = {k: f["selection"] for k, f in summary["fits"]["0"].items()}
+    assert selection["physics"]["segment"] is None
+    assert selection["dense NARX"]["n"] == selection["linear ARX"]["n"]
     assert summary["published"]["test"]["state of the art (dynoNet)"]["rmse"] == 2.64
-    assert set(summary["physics_params"]) >= {"M", "Fv", "Fc", "offset"}
+    assert set(summary["physics_params"]["0"]) >= {"M", "Fv", "Fc", "offset"}
     assert (out / "emps.png").stat().st_size > 10_000
     page = (out / "report.html").read_text()
     assert "Champneys" in page and "src='data:image/png;base64," in page
@@ -352,12 +360,13 @@ def test_finished_measured_run_is_kept_and_its_report_rewritten(tmp_path, capsys
 
 def test_progress_counts_the_zoos_models(tmp_path, capsys, axis):
     argv = ["run", "emps", "--quick", "--data", str(tmp_path), "--n-jobs", "1"]
-    assert main([*argv, "--out", str(tmp_path / "run")]) == 0
+    assert main([*argv, "--seeds", "0", "1", "--out", str(tmp_path / "run")]) == 0
     err = capsys.readouterr().err
-    # Standard error is not a terminal here: one line per finished model.
-    lines = [line for line in err.splitlines() if line.startswith("emps: ")]
+    # Standard error is not a terminal here: one line per finished model, and
+    # one bar per seed (each seed is a full selection).
+    lines = [line for line in err.splitlines() if line.startswith("emps seed ")]
     assert [line.split(" models: ")[0] for line in lines] == [
-        f"emps: {i}/4" for i in range(1, 5)
+        f"emps seed {s}: {i}/4" for s in (0, 1) for i in range(1, 5)
     ]
     assert "\r" not in err
 
@@ -406,15 +415,18 @@ def test_no_library_module_switches_the_matplotlib_backend():
 
 
 def test_run_experiment_runs_a_measured_system_from_python(tmp_path, axis):
+    # run_experiment selects; it reads no test record (run_system scores them
+    # once every seed's selection is sealed).
     result = _runner.run_experiment("emps", quick=True, data=tmp_path)
-    assert list(result.predictions["test"]) == [
+    assert list(result.fits) == [
         "physics",
         "linear ARX",
         "dense NARX",
         "physics + linear",
     ]
-    assert {row["model"] for row in result.rows} == set(TINY)
-    assert all(row["unit"] == "mm" for row in result.rows)
+    assert result.tests == {} and result.rows == []
+    assert set(result.estimators) == set(TINY)
+    assert result.selected_model() in TINY
 
 
 def test_a_measured_run_without_data_fetches_and_says_where_files_go(
@@ -466,8 +478,8 @@ def test_run_measured_writes_a_folder_the_command_carries_on(tmp_path, axis, cap
     from skhybrid.experiments import run_measured
 
     out = tmp_path / "run"
-    summary = run_measured("emps", tmp_path, out, quick=True)
-    assert summary["selected_model"] in TINY
+    summary = run_measured("emps", tmp_path, out, quick=True, seeds=[0])
+    assert summary["chosen_model"]["0"] in TINY
     assert _finished(out) == TINY
     # The command sees the same run: --resume rewrites its report.
     assert _run(out, "--resume") == 0

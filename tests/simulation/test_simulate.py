@@ -64,9 +64,7 @@ def test_one_step_equals_predict(fitted, est):
     sim = est.simulate(U_seq, X_seq[:, :n_steps])
     assert sim.shape == X_seq.shape
     np.testing.assert_array_equal(sim[:, :n_steps], X_seq[:, :n_steps])
-    X, _ = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(
-        list(X_seq), list(U_seq)
-    )
+    X, _ = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(list(X_seq), list(U_seq))
     expected = np.asarray(est.predict(X)).reshape(4, N_STATES)
     np.testing.assert_allclose(sim[:, -1], expected, rtol=1e-12, atol=1e-12)
 
@@ -89,9 +87,7 @@ def test_batch_equals_separate_calls(fitted, est):
 def test_least_squares_init_for_every_estimator(fitted, est):
     est, n_steps = fitted[type(est).__name__]
     if "init" not in inspect.signature(est.simulate).parameters:
-        pytest.skip(
-            f"{type(est).__name__} always estimates its (latent) initial state"
-        )
+        pytest.skip(f"{type(est).__name__} always estimates its (latent) initial state")
     X_seq, U_seq = _sequences(n_traj=3, n_times=30, seed=4)
     init = X_seq[:, : n_steps + 6]
     batch = est.simulate(U_seq, init, init="least_squares")

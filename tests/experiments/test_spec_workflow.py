@@ -1,0 +1,276 @@
+"""A user's own machine through the public workflow: SystemSpec, run_system, CLI.
+
+The machine is simulated: a damped oscillator with a cubic spring, driven by a
+held random input, whose position alone is measured (the velocity is latent).
+Its physics is incomplete (a linear spring). Two estimation records of different
+lengths and a test record; the test record is a function that checks, when it is
+called, that the sealed selection is already on disk.
+"""
+
+import hashlib
+import json
+import textwrap
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skhybrid.cli import main
+from skhybrid.experiments import SystemSpec, run_system
+
+MACHINE = textwrap.dedent(
+    '''
+    import numpy as np
+    from pathlib import Path
+
+    from skhybrid.domain import StateSpaceModel
+    from skhybrid.experiments import SystemSpec
+
+    DT = 0.1
+    #: (selection.json existed, when) at each read of the test records.
+    TEST_READS = []
+
+
+    def oscillator(x, u, *, xp, k, c, dt):
+        p, v = x[:, 0], x[:, 1]
+        return xp.stack([p + dt * v, v + dt * (-k * p - c * v + u[:, 0])], axis=1)
+
+
+    def record(n, seed):
+        """The machine: a cubic spring the physics lacks; position measured."""
+        rng = np.random.default_rng(seed)
+        u = np.repeat(rng.uniform(-1, 1, n // 25 + 1), 25)[:n]
+        x, y = np.zeros(2), np.empty(n)
+        for t in range(n):
+            y[t] = x[0]
+            p, v = x
+            x = np.array([p + DT * v, v + DT * (-p - 0.4 * v - 0.8 * p**3 + u[t])])
+        return u[:, None], (y + 0.002 * rng.standard_normal(n))[:, None]
+
+
+    def physics():
+        return StateSpaceModel(
+            oscillator,
+            {"k": 0.6, "c": 0.6, "dt": DT},
+            state_names=["position", "velocity (latent)"],
+            observed=["position"],
+            time="discrete",
+            n_init=10,
+            fixed=("dt",),
+        )
+
+
+    def make_spec(out="out", **kwargs):
+        def tests():
+            TEST_READS.append((Path(out) / "selection.json").is_file())
+            return {"test": record(400, 7)}
+
+        options = dict(
+            name="toy-machine",
+            records=[record(600, 0), record(440, 1)],
+            physics=physics(),
+            n_init=10,
+            dt=DT,
+            tests=tests,
+            unit="m",
+            hybrids={
+                "T=20": {
+                    "horizon": 20,
+                    "hidden_layer_sizes": (8,),
+                    "max_epochs": 3,
+                    "batch_size": 16,
+                }
+            },
+        )
+        options.update(kwargs)
+        return SystemSpec(**options)
+
+
+    spec = make_spec()
+    '''
+)
+
+
+@pytest.fixture
+def machine(tmp_path, monkeypatch):
+    (tmp_path / "toy_machine.py").write_text(MACHINE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.chdir(tmp_path)
+    import importlib
+
+    import toy_machine
+
+    importlib.reload(toy_machine)
+    toy_machine.TEST_READS.clear()
+    return toy_machine
+
+
+def _canonical_hash(selection):
+    text = json.dumps(selection, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
+    out = tmp_path / "run"
+    spec = machine.make_spec(out=out)
+    summary = run_system(spec, out, quick=True)
+
+    # The test records were read once, after selection.json was written.
+    assert machine.TEST_READS == [True]
+    sealed = json.loads((out / "selection.json").read_text())
+    assert sealed["sha256"] == _canonical_hash(sealed["selection"])
+    assert summary["selection_sha256"] == sealed["sha256"]
+    assert sealed["sha256"] in (out / "report.html").read_text()
+
+    models = {
+        "physics",
+        "linear ARX",
+        "dense NARX",
+        "physics + linear",
+        "physics + dense",
+        "state-space hybrid",
+    }
+    assert summary["seeds"] == [0, 1, 2]
+    for seed, chosen in summary["chosen_model"].items():
+        validation = summary["validation_rmse"][seed]
+        assert set(validation) == models
+        assert chosen == min(validation, key=validation.get)
+        frozen = sealed["selection"]["seeds"][int(seed)]
+        assert frozen["chosen_model"] == chosen
+        assert frozen["validation_rmse"] == pytest.approx(validation)
+    assert sealed["selection"]["system"]["record_lengths"] == [600, 440]
+
+    chosen = summary["chosen_test_rmse"]["test"]
+    assert len(chosen["by_seed"]) == 3 and np.all(np.isfinite(chosen["by_seed"]))
+    assert chosen["mean"] == pytest.approx(np.mean(chosen["by_seed"]))
+    assert chosen["std"] == pytest.approx(np.std(chosen["by_seed"], ddof=1))
+    for seed, name in summary["chosen_model"].items():
+        by_seed = summary["test_rmse"]["test"][name]["by_seed"]
+        assert chosen["by_seed"][int(seed)] == pytest.approx(by_seed[int(seed)])
+    # The physics (no network) is the same at every seed.
+    physics = summary["test_rmse"]["test"]["physics"]
+    assert physics["std"] == pytest.approx(0.0, abs=1e-12)
+    assert summary["physics_params"]["0"]["k"] > 0
+
+    rows = (out / "results.csv").read_text().splitlines()
+    assert len(rows) == 1 + 3 * len(models)
+
+
+def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, capsys):
+    # The same spec from the shell (one seed here): the same figures as Python.
+    argv = ["run", "--system", "toy_machine:spec", "--quick", "--seeds", "0"]
+    assert main([*argv, "--no-progress", "--n-jobs", "1", "--out", "out"]) == 0
+    printed = capsys.readouterr().out
+    assert "sealed selection sha256" in printed and "test: " in printed
+    assert machine.TEST_READS == [True]
+    cli = json.loads((tmp_path / "out" / "results.json").read_text())["systems"]
+    cli = cli["toy-machine"]
+
+    summary = run_system(machine.make_spec(out="py"), "py", quick=True, seeds=[0])
+    assert summary["selection_sha256"] == cli["selection_sha256"]
+    for model, spread in summary["test_rmse"]["test"].items():
+        assert cli["test_rmse"]["test"][model]["mean"] == pytest.approx(
+            spread["mean"], rel=1e-9
+        )
+
+
+def test_cli_spec_errors_are_one_line(machine, tmp_path, capsys):
+    cases = [
+        (["--system", "toy_machine"], "MODULE:OBJECT"),
+        (["--system", "no_such_module:spec"], "cannot import no_such_module"),
+        (["--system", "toy_machine:nothing"], "has no nothing"),
+        (["--system", "toy_machine:DT"], "not a skhybrid.experiments.SystemSpec"),
+        (["pendulum", "--system", "toy_machine:spec"], "give one system"),
+        (["--system", "toy_machine:spec", "--seed", "1", "--seeds", "2"], "not both"),
+        (["pendulum", "--seeds", "1", "2"], "--seeds sets a measured run's seeds"),
+    ]
+    for extra, words in cases:
+        out = tmp_path / "never"
+        assert main(["run", *extra, "--out", str(out)]) == 2, extra
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, (extra, err)
+    assert machine.TEST_READS == []
+
+
+def test_dataframes_with_a_time_index_give_the_sample_period(machine):
+    (u1, y1), (u2, y2) = machine.record(300, 0), machine.record(200, 1)
+    frames = [
+        pd.DataFrame(
+            {"force": u[:, 0], "position": y[:, 0]},
+            index=pd.to_timedelta(np.arange(len(u)) * 0.1, unit="s"),
+        )
+        for u, y in ((u1, y1), (u2, y2))
+    ]
+    spec = machine.make_spec(
+        records=frames, dt=None, inputs=["force"], outputs=["position"]
+    )
+    U, Y = spec.estimation_records()
+    assert [len(u) for u in U] == [300, 200]
+    np.testing.assert_array_equal(Y[1], y2)
+    assert spec.sample_period() == pytest.approx(0.1)
+
+    with pytest.raises(ValueError, match=r"dt=0\.2 disagrees"):
+        machine.make_spec(
+            records=frames, dt=0.2, inputs=["force"], outputs=["position"]
+        ).estimation_records()
+    with pytest.raises(ValueError, match=r"no column\(s\) \['speed'\]"):
+        machine.make_spec(
+            records=frames, inputs=["force"], outputs=["speed"]
+        ).estimation_records()
+    with pytest.raises(ValueError, match="inputs=\\[...\\] and outputs"):
+        machine.make_spec(records=frames).estimation_records()
+    uneven = frames[0].iloc[[0, 1, 3, 4, 5]]
+    with pytest.raises(ValueError, match="not uniformly sampled"):
+        machine.make_spec(
+            records=[uneven], dt=None, inputs=["force"], outputs=["position"]
+        ).estimation_records()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "words"),
+    [
+        ({"n_init": 0}, ValueError, "n_init must be an int >= 1; got n_init=0"),
+        ({"n_init": 2.5}, TypeError, "n_init must be an int >= 1; got n_init=2.5"),
+        ({"dt": -1.0}, ValueError, "dt must be a positive number; got dt=-1.0"),
+        ({"name": ""}, ValueError, "name must be a non-empty str"),
+        ({"physics": 3}, TypeError, "physics must be an estimator"),
+        ({"segments": (0,)}, ValueError, "segments must be 'auto'"),
+        ({"hybrids": "all"}, TypeError, "hybrids must be 'auto', None or a dict"),
+        ({"tests": [1, 2]}, TypeError, "tests must be a dict"),
+        ({"scale": 0}, ValueError, "scale must be positive; got scale=0"),
+    ],
+)
+def test_a_bad_spec_names_the_parameter(machine, kwargs, error, words):
+    with pytest.raises(error, match=words.replace("(", r"\(").replace("[", r"\[")):
+        machine.make_spec(**kwargs)
+
+
+def test_records_are_checked_before_anything_is_fitted(machine):
+    u, y = machine.record(100, 0)
+    y_bad = y.copy()
+    y_bad[5] = np.nan
+    with pytest.raises(ValueError, match=r"records\[1\] holds NaN"):
+        machine.make_spec(records=[(u, y), (u, y_bad)]).estimation_records()
+    with pytest.raises(ValueError, match="at least 8 \\* n_init = 80 samples"):
+        machine.make_spec(records=[(u, y), (u[:50], y[:50])]).estimation_records()
+    with pytest.raises(ValueError, match=r"records\[0\] must hold aligned"):
+        machine.make_spec(records=[(u, y[:90])]).estimation_records()
+
+
+def test_the_default_family_scales_with_the_records(machine):
+    spec = machine.make_spec(hybrids="auto", segments="auto")
+    assert spec.segment_candidates([4000]) == (None, 1000, 250)
+    assert spec.segment_candidates([600]) == (None, 150)
+    hybrids = spec.hybrid_candidates([4000])
+    assert [h["horizon"] for h in hybrids.values()] == [50, 200]
+    # Short records: the horizon stays below half a piece of the training records.
+    assert [h["horizon"] for h in spec.hybrid_candidates([400]).values()] == [40]
+    assert machine.make_spec(hybrids=None).hybrid_candidates([4000]) == {}
+
+
+def test_system_spec_is_public_and_documented():
+    import skhybrid.experiments as experiments
+
+    for name in ("SystemSpec", "run_system", "benchmark_spec"):
+        assert name in experiments.__all__
+    assert "n_init" in SystemSpec.__doc__ and "selection.json" in run_system.__doc__

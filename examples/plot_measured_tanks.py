@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from skhybrid.datasets import load_cascaded_tanks
-from skhybrid.experiments import MEASURED_SYSTEMS, PUBLISHED
+from skhybrid.experiments import PUBLISHED, benchmark_spec
 
 # By default ../shared/data from where you run it (the repository's root).
 default = Path.cwd() / ".." / "shared" / "data"
@@ -43,8 +43,10 @@ except FileNotFoundError as exc:
 if data is not None:
     train, test = data.splits["train"], data.splits["test"]
     n_init = data.n_init
-    system = MEASURED_SYSTEMS["cascaded-tanks"]
-    physics = system.physics(train.u, train.y, data.dt, quick=True)
+    # The benchmark's spec (the same form a user writes for their own machine)
+    # holds its physics.
+    spec = benchmark_spec("cascaded-tanks", data_dir)
+    physics = spec.make_physics([train.u], [train.y], data.dt).set_params(max_nfev=40)
     # A StateSpaceModel with the upper tank's level latent, fitted by the free-run
     # (simulation) error on the estimation record only.
     physics.fit_simulation(train.u, train.y)

@@ -19,7 +19,6 @@ folder with its lock and resume, joblib or Dask, progress, :func:`write_report`)
 """
 
 import base64
-import copy
 import html
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -247,9 +246,7 @@ class MeasuredSystem:
         """
         if self._spec is not None:
             return self
-        bound = copy.copy(self)
-        bound._spec = self.make_spec(data, quick)
-        return bound
+        return type(self)(self.make_spec(data, quick))
 
     def check_files(self, data=None, quick=False):
         """Load and check the estimation records (a bad file raises here).

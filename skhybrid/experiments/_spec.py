@@ -205,7 +205,9 @@ class SystemSpec:
     >>> spec = SystemSpec(
     ...     "first-order",
     ...     records=[(u, u)],
-    ...     physics=StateSpaceModel(step, {"a": 0.5, "b": 1.0}, time="discrete"),
+    ...     physics=StateSpaceModel(
+    ...         step, {"a": 0.5, "b": 1.0}, state_names=["y"], time="discrete"
+    ...     ),
     ...     n_init=5,
     ...     dt=0.1,
     ... )

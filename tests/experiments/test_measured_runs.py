@@ -22,8 +22,7 @@ from sklearn.utils import Bunch
 
 from skhybrid import cli
 from skhybrid.cli import main
-from skhybrid.experiments import _measured, _measured_zoo, _runner
-from skhybrid.experiments import SystemSpec
+from skhybrid.experiments import SystemSpec, _measured, _measured_zoo, _runner
 from skhybrid.experiments._measured import EMPS, MEASURED_SYSTEMS
 from skhybrid.experiments._measured_physics import emps_physics
 

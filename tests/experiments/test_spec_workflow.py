@@ -269,7 +269,7 @@ def test_the_default_family_scales_with_the_records(machine):
 
 
 def test_system_spec_is_public_and_documented():
-    import skhybrid.experiments as experiments
+    from skhybrid import experiments
 
     for name in ("SystemSpec", "run_system", "benchmark_spec"):
         assert name in experiments.__all__

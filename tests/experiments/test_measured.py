@@ -136,7 +136,7 @@ def test_segments_and_records():
     U, _ = _records([np.arange(10.0)], [np.arange(10.0)], 3)
     assert [len(a) for a in U] == [3, 3, 4]
     # Several records: pieces in proportion to length, none spans two records.
-    U, Y = _records([np.arange(10.0), np.arange(5.0)], [np.arange(10.0)] * 2, 3)
+    U, _ = _records([np.arange(10.0), np.arange(5.0)], [np.arange(10.0)] * 2, 3)
     assert [len(a) for a in U] == [5, 5, 5] and U[2].tolist() == list(range(5))
     model = emps_physics(1e-3)
     with pytest.raises(ValueError, match="must exceed the model's n_init"):

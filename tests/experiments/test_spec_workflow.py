@@ -217,7 +217,7 @@ def test_dataframes_with_a_time_index_give_the_sample_period(machine):
         machine.make_spec(
             records=frames, inputs=["force"], outputs=["speed"]
         ).estimation_records()
-    with pytest.raises(ValueError, match="inputs=\\[...\\] and outputs"):
+    with pytest.raises(ValueError, match=r"inputs=\[...\] and outputs"):
         machine.make_spec(records=frames).estimation_records()
     uneven = frames[0].iloc[[0, 1, 3, 4, 5]]
     with pytest.raises(ValueError, match="not uniformly sampled"):

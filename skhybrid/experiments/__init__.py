@@ -22,10 +22,10 @@ import importlib
 # Names load on first use (PEP 562), so that ``skhybrid run`` can check its
 # output folder (skhybrid.experiments._store) before torch and the zoo import.
 _LAZY = {
-    "MEASURED_SYSTEMS": "_measured",
-    "PUBLISHED": "_measured",
+    "MEASURED_SYSTEMS": "_benchmarks",
+    "PUBLISHED": "_benchmarks",
     "SystemSpec": "_spec",
-    "benchmark_spec": "_measured",
+    "benchmark_spec": "_benchmarks",
     "run_system": "_measured",
     "SYSTEMS": "_systems",
     "ExperimentResult": "_runner",

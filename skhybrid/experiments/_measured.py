@@ -25,20 +25,6 @@ from pathlib import Path
 
 import numpy as np
 
-from skhybrid.datasets import (
-    fetch_cascaded_tanks,
-    fetch_emps,
-    fetch_silverbox,
-    load_cascaded_tanks,
-    load_emps,
-    load_silverbox,
-)
-from skhybrid.experiments._measured_physics import (
-    emps_physics,
-    silverbox_physics,
-    tanks_physics,
-    with_next_input,
-)
 from skhybrid.experiments._measured_zoo import (
     VALIDATION_FRACTION,
     MeasuredContext,
@@ -47,65 +33,20 @@ from skhybrid.experiments._measured_zoo import (
     zoo,
 )
 from skhybrid.experiments._sealed import SELECTION_FILE
-from skhybrid.experiments._spec import SystemSpec, hybrid_settings
+from skhybrid.experiments._spec import SystemSpec
 
 __all__ = [
-    "MEASURED_SYSTEMS",
-    "PUBLISHED",
+    "DEFAULT_SEEDS",
     "MeasuredResult",
     "MeasuredSettings",
     "MeasuredSystem",
-    "benchmark_spec",
+    "measured_identity",
     "run_measured",
     "run_system",
 ]
 
 #: Most residual evaluations of a physics' fit in a quick run.
 QUICK_NFEV = 20
-
-#: Published free-run test RMSE in the official units, with sources (data README).
-PUBLISHED = {
-    "cascaded-tanks": {
-        "test": {
-            "linear (LTI SS)": (0.588, "Champneys et al. 2024, arXiv:2405.10779"),
-            "best baseline (GRU)": (0.396, "Champneys et al. 2024, arXiv:2405.10779"),
-            "CT-SUBNET": (0.306, "Beintema et al., ICLR 2023"),
-            "state of the art (grey-box with overflow)": (
-                0.191,
-                "Worden et al. 2018",
-            ),
-        }
-    },
-    "emps": {
-        "test": {
-            "linear (LTI SS)": (5.53, "Champneys et al. 2024, arXiv:2405.10779"),
-            "best baseline (polynomial NARX)": (
-                5.17,
-                "Champneys et al. 2024, arXiv:2405.10779",
-            ),
-            "CT-SUBNET": (4.61, "Beintema et al., ICLR 2023"),
-            "state of the art (dynoNet)": (2.64, "Forgione & Piga 2021"),
-        }
-    },
-    "silverbox": {
-        "test_multisine": {
-            "linear (LTI SS)": (6.96, "Champneys et al. 2024, arXiv:2405.10779"),
-            "best baseline (GP-NARX)": (0.301, "Champneys et al. 2024"),
-            "state of the art (DT-SUBNET)": (0.36, "Beintema et al. 2021"),
-        },
-        "test_arrow_full": {
-            "linear (LTI SS)": (14.4, "Champneys et al. 2024, arXiv:2405.10779"),
-            "best baseline (GP-NARX)": (0.60, "Champneys et al. 2024"),
-            "DT-SUBNET": (1.4, "Beintema et al. 2021"),
-            "state of the art (PNLSS)": (0.26, "Paduart et al. 2010"),
-        },
-        "test_arrow_no_extrapolation": {
-            "linear (LTI SS)": (6.58, "Champneys et al. 2024, arXiv:2405.10779"),
-            "DT-SUBNET": (0.32, "Beintema et al. 2021"),
-            "state of the art (GP-NARX)": (0.259, "Champneys et al. 2024"),
-        },
-    },
-}
 
 
 @dataclass(frozen=True)
@@ -304,6 +245,8 @@ class MeasuredSystem:
         """The published test figures, ``{split: {label: (rmse, source)}}``."""
         if self._spec is not None and self._spec.published:
             return self._spec.published
+        from skhybrid.experiments._benchmarks import PUBLISHED
+
         return PUBLISHED.get(self.name, {})
 
     # -- the runner's hooks ----------------------------------------------------
@@ -401,144 +344,6 @@ class MeasuredSystem:
             result.settings.seed,
         )
         return delayed(fit_model)(name, model, ctx, deps, sink)
-
-
-class CascadedTanks(MeasuredSystem):
-    name = "cascaded-tanks"
-    title = "Cascaded tanks with overflow (measured)"
-    unit = "V"
-    hybrids = False
-
-    def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_cascaded_tanks() if data is None else load_cascaded_tanks(data)
-
-        d = load()
-        return SystemSpec(
-            self.name,
-            records=[(d.splits["train"].u, d.splits["train"].y)],
-            # Level units are volts of the lower sensor; the upper tank is latent.
-            physics=tanks_physics(d.dt, max_nfev=100),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {"test": _pair(load().splits["test"])},
-            title=self.title,
-            unit=self.unit,
-            published=PUBLISHED[self.name],
-            segments=(None,),
-            hybrids=None,
-            notes=BUILTIN_NOTES[self.name],
-        )
-
-
-class EMPS(MeasuredSystem):
-    name = "emps"
-    title = "EMPS electro-mechanical positioning axis (measured, closed loop)"
-    unit = "mm"
-    scale = 1e3
-
-    def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_emps() if data is None else load_emps(data)
-
-        d = load()
-        # The network corrects the velocity's update from the velocity and the
-        # input (the position drifts over the record, so it is not read).
-        common = {
-            "correction_states": ["velocity (latent)"],
-            "corrected_states": ["velocity (latent)"],
-            "encoder_absolute": False,
-        }
-        hybrids = {
-            f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
-            for T, h, stride in ((100, (32, 32), 25), (400, (32, 32), 50))
-        }
-        return SystemSpec(
-            self.name,
-            records=[(d.splits["train"].u, d.splits["train"].y)],
-            # The reference model of the description: symmetric friction, offset.
-            physics=emps_physics(d.dt, max_nfev=60),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {"test": _pair(load().splits["test"])},
-            title=self.title,
-            unit=self.unit,
-            scale=self.scale,
-            published=PUBLISHED[self.name],
-            segments=(2000, 4000, 8000),
-            hybrids=hybrids,
-            notes=BUILTIN_NOTES[self.name],
-        )
-
-
-class Silverbox(MeasuredSystem):
-    name = "silverbox"
-    title = "Silverbox electronic Duffing oscillator (measured)"
-    unit = "mV"
-    scale = 1e3
-
-    def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_silverbox() if data is None else load_silverbox(data)
-
-        d = load()
-        train = d.splits["train"]
-        n = 16384 if quick else len(train.u)
-        names = ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation")
-        common = {"corrected_states": ["derivative (latent)"]}
-        hybrids = {
-            f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
-            for T, h, stride in ((50, (32, 32), 50), (200, (32, 32), 100))
-        }
-
-        def physics(U, Y, dt):
-            # The start: a one-step regression on finite differences.
-            return silverbox_physics(dt, U[0][:, :1], Y[0], max_nfev=30)
-
-        return SystemSpec(
-            self.name,
-            records=[(train.u[:n], train.y[:n])],
-            physics=physics,
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {k: _pair(load().splits[k]) for k in names},
-            title=self.title,
-            unit=self.unit,
-            scale=self.scale,
-            published=PUBLISHED[self.name],
-            physics_inputs=with_next_input,
-            segments=(512,),
-            hybrids=hybrids,
-            hybrid_records=6,
-            notes=BUILTIN_NOTES[self.name],
-        )
-
-
-def _pair(split):
-    return (split.u, split.y)
-
-
-#: Why each built-in benchmark's spec departs from the default candidate family.
-BUILTIN_NOTES = {
-    "cascaded-tanks": (
-        "Own candidates: whole-record physics fits only (one record of 1024 "
-        "samples) and no state-space hybrid; both chosen in 0.2 on the "
-        "validation tail, kept so that the recorded figures reproduce."
-    ),
-    "emps": (
-        "Own candidates: segments of 2000-8000 samples and hybrids that correct "
-        "the latent velocity from the velocity and the input (the position "
-        "drifts over the record); chosen in 0.2 on the validation tail."
-    ),
-    "silverbox": (
-        "Own candidates: 512-sample segments (a lightly damped oscillator's "
-        "long free runs have local minima), inputs held as [u(t), u(t+1)] "
-        "(first-order hold) and hybrids that correct the latent derivative; "
-        "chosen in 0.2 on the validation tail."
-    ),
-}
-
-MEASURED_SYSTEMS = {cls.name: cls() for cls in (CascadedTanks, EMPS, Silverbox)}
 
 
 class MeasuredResult:
@@ -869,34 +674,6 @@ read.</p>{notes}
 """
 
 
-def benchmark_spec(name, data=None, *, quick=False):
-    """The :class:`SystemSpec` of a built-in measured benchmark.
-
-    The built-in benchmarks are specs of the same public form a user writes for
-    their own machine; this returns one to read, change or run with
-    :func:`run_system`.
-
-    Parameters
-    ----------
-    name : {"cascaded-tanks", "emps", "silverbox"}
-        The benchmark.
-    data : str or Path or None, default=None
-        Folder holding its files; None fetches them once into the data home.
-    quick : bool, default=False
-        The quick form (a shorter Silverbox estimation record).
-
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation records loaded; the test records load when called.
-    """
-    if name not in MEASURED_SYSTEMS:
-        raise ValueError(
-            f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
-        )
-    return MEASURED_SYSTEMS[name].make_spec(data, quick)
-
-
 #: The seeds of a measured run: each a full selection.
 DEFAULT_SEEDS = (0, 1, 2)
 
@@ -1067,7 +844,7 @@ def run_measured(
     Parameters
     ----------
     name : str
-        One of :data:`MEASURED_SYSTEMS`.
+        A built-in measured benchmark (``skhybrid list``).
     data : str or pathlib.Path or None
         Folder holding the benchmark files (for example ``../shared/data``);
         None fetches them.
@@ -1088,6 +865,8 @@ def run_measured(
     results : dict
         The system's entry of ``results.json``.
     """
+    from skhybrid.experiments._benchmarks import MEASURED_SYSTEMS
+
     if name not in MEASURED_SYSTEMS:
         raise ValueError(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."

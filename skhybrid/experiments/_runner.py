@@ -305,7 +305,7 @@ def get_system(system):
     """
     if not isinstance(system, str):
         return system
-    from skhybrid.experiments._measured import MEASURED_SYSTEMS
+    from skhybrid.experiments._benchmarks import MEASURED_SYSTEMS
 
     known = {**SYSTEMS, **MEASURED_SYSTEMS}
     if system not in known:

@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose
 from sklearn.base import clone
 from sklearn.linear_model import Ridge
 
-from skhybrid.experiments._measured import EMPS
+from skhybrid.experiments._benchmarks import EMPS
 from skhybrid.experiments._measured_physics import emps_physics, with_next_input
 from skhybrid.experiments._measured_zoo import (
     MeasuredContext,

@@ -8,7 +8,8 @@ from numpy.testing import assert_allclose
 
 from skhybrid.cli import main
 from skhybrid.exceptions import SimulationDivergedError
-from skhybrid.experiments._measured import MEASURED_SYSTEMS, PUBLISHED, run_measured
+from skhybrid.experiments._benchmarks import MEASURED_SYSTEMS, PUBLISHED
+from skhybrid.experiments._measured import run_measured
 from skhybrid.experiments._measured_physics import (
     emps_physics,
     fit_segments,

@@ -23,7 +23,7 @@ from sklearn.utils import Bunch
 from skhybrid import cli
 from skhybrid.cli import main
 from skhybrid.experiments import SystemSpec, _measured, _measured_zoo, _runner
-from skhybrid.experiments._measured import EMPS, MEASURED_SYSTEMS
+from skhybrid.experiments._benchmarks import EMPS, MEASURED_SYSTEMS
 from skhybrid.experiments._measured_physics import emps_physics
 
 REPO = Path(__file__).resolve().parents[2]

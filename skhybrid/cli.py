@@ -95,7 +95,13 @@ def _folder(text):
 #: checks). Named here so that arguments and the output folder are checked
 #: before the experiments (torch, the zoos) are imported.
 SIMULATED_SYSTEMS = ("pendulum", "double-pendulum", "dc-motor")
-MEASURED_SYSTEMS = ("cascaded-tanks", "emps", "silverbox")
+MEASURED_SYSTEMS = (
+    "cascaded-tanks",
+    "emps",
+    "silverbox",
+    "coupled-electric-drives",
+    "wiener-hammerstein",
+)
 
 
 def _build_parser():
@@ -127,7 +133,8 @@ def _build_parser():
         metavar="SYSTEM",
         help="one of: "
         + ", ".join([*SIMULATED_SYSTEMS, "all", *MEASURED_SYSTEMS])
-        + " (the last three are measured benchmarks: --data, or downloaded)",
+        + f" (the last {len(MEASURED_SYSTEMS)} are measured benchmarks: --data, or "
+        "downloaded)",
     )
     run.add_argument(
         "--system",

@@ -43,6 +43,16 @@ CATALOG = {
             "test_arrow_no_extrapolation"
         ),
     ),
+    "coupled-electric-drives": (
+        "measured",
+        "Coupled electric drives, DATAUNIF (measured)",
+        "official split of both records; test_1, test_2",
+    ),
+    "wiener-hammerstein": (
+        "measured",
+        "Wiener-Hammerstein electronic circuit, SYSID 2009 (measured)",
+        "official split; test",
+    ),
 }
 
 #: measured system -> (subfolder of the data folder, the files its loader reads)
@@ -50,4 +60,6 @@ DATA_FILES = {
     "cascaded-tanks": ("cascaded_tanks", ("dataBenchmark.mat",)),
     "emps": ("emps", ("DATA_EMPS.mat", "DATA_EMPS_PULSES.mat")),
     "silverbox": ("silverbox", ("SNLS80mV.mat",)),
+    "coupled-electric-drives": ("coupled_electric_drives", ("DATAUNIF.MAT",)),
+    "wiener-hammerstein": ("wiener_hammerstein", ("WienerHammerBenchMark.mat",)),
 }

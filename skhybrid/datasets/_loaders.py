@@ -649,8 +649,8 @@ Cite: D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey,
 Cao, S. Laflamme, D. Taylor, J. Ricles, "High capacity variable friction damper
 based on band brake technology", Engineering Structures 113:287-298, 2016.
 
-License: Creative Commons Attribution-ShareAlike 4.0 International (CC BY-SA
-4.0), http://creativecommons.org/licenses/by-sa/4.0/.
+License: CC BY-SA 4.0 (Creative Commons Attribution-ShareAlike 4.0
+International), http://creativecommons.org/licenses/by-sa/4.0/.
 """
 
 _FRICTION_DAMPER_CITATION = (

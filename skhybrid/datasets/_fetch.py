@@ -15,11 +15,13 @@ import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import quote
 
 __all__ = [
     "fetch_cascaded_tanks",
     "fetch_coupled_electric_drives",
     "fetch_emps",
+    "fetch_friction_damper",
     "fetch_silverbox",
     "fetch_wiener_hammerstein",
     "get_data_home",
@@ -28,7 +30,8 @@ __all__ = [
 #: Environment variable naming the data home.
 DATA_HOME_ENV = "SKHYBRID_DATA"
 #: Environment variable naming a mirror: a base URL serving the official files
-#: and archives under their official names.
+#: and archives under their official names (a benchmark published file by file:
+#: each file under its path relative to the benchmark's folder).
 MIRROR_ENV = "SKHYBRID_DATA_MIRROR"
 
 
@@ -41,15 +44,22 @@ class BenchmarkFiles:
     folder : str
         Subfolder of the data home (the one its loader looks in).
     url : str
-        The official download: an archive holding the files, or the one file.
+        The official download: an archive holding the files, or the one file,
+        or (with ``sources``) the base URL the files are published under.
     archive : str or None
-        The archive's official name; None when ``url`` is the file itself.
+        The archive's official name; None when ``url`` is the file itself or a
+        base URL.
     sha256 : dict of str to str
-        The files a loader reads, by name, and their SHA256.
+        The files a loader reads, by name (a path relative to ``folder``), and
+        their SHA256.
     citation : str
         What to cite when using the data.
     extra_urls : tuple of str
         Other official locations of the same archive, tried in order.
+    sources : dict of str to str
+        For a benchmark published file by file: each file's official path
+        relative to ``url``, by name; empty otherwise. A mirror serves each file
+        under its name instead.
     """
 
     folder: str
@@ -58,10 +68,43 @@ class BenchmarkFiles:
     sha256: dict
     citation: str
     extra_urls: tuple = field(default=())
+    sources: dict = field(default_factory=dict)
 
 
 def _google_drive(file_id):
     return f"https://docs.google.com/uc?export=download&id={file_id}"
+
+
+#: The friction damper's files (``data/dataset-2/`` of its source) and their SHA256.
+_FRICTION_DAMPER_SHA256 = {
+    "characterization_datasets/0.5Hz30lbtension0.5amplitude.json": (
+        "7ded96e7236317bcdc574182473967c5c072e687c7d7b5e0b694bcf93a4eb7f9"
+    ),
+    "characterization_datasets/0.5Hz30lbtension1.5amplitude.json": (
+        "eafbe3a53eab301ae3fe15ea9ec2889a03373ad27add94ef39d7b1acc96b8149"
+    ),
+    "characterization_datasets/0.5Hz30lbtension1amplitude.json": (
+        "3d58d0f71296a6221974c14454352fa29a27d536295fd5cb05e6d946a7cf30db"
+    ),
+    "characterization_datasets/1Hz30lbtension0.5amplitude.json": (
+        "8d8c46dcbed3889ae8dbe6ff3698d67e6453349ab728a8915b22680453c4d277"
+    ),
+    "characterization_datasets/1Hz30lbtension1.5amplitude.json": (
+        "1a894d5857486ee56f363343c3216d2fb300c2fc8777439cca8ee2d02a7dd35c"
+    ),
+    "characterization_datasets/1Hz30lbtension1amplitude.json": (
+        "ed02a98a96369937851bed92b4e5e92e34d98ceebd4db81d5bd65d5b77c4bc91"
+    ),
+    "characterization_datasets/2Hz30lbtension0.5amplitude.json": (
+        "68ed9bd269da97845b4b94534a3ed48651022490cf337dacd2eaaf4abb2df2ed"
+    ),
+    "earthquake_profiles/ImperialValleyDBE.json": (
+        "9060242d42c480e2657494f43372392f1ef478310ab7039281bfa9f219d12d26"
+    ),
+    "earthquake_profiles/KocaeliDBE.json": (
+        "31f407c2ee09cb69ffe685d3c43bfddbc34eb340fd761216d36e57c78f5aba40"
+    ),
+}
 
 
 #: The official sources of the benchmarks (those of the ``nonlinear-benchmarks``
@@ -137,6 +180,18 @@ BENCHMARK_FILES = {
         },
         citation="J. Schoukens, J. Suykens, L. Ljung, 15th IFAC SYSID, 2009.",
     ),
+    "friction_damper": BenchmarkFiles(
+        folder="friction_damper_backlash",
+        url="https://raw.githubusercontent.com/ARTS-Laboratory/"
+        "Dataset-Friction-Damper-with-Backlash/"
+        "0e09aa9d950760277e31c08cd93fd01f39a5af09/data/dataset-2",
+        archive=None,
+        sha256=_FRICTION_DAMPER_SHA256,
+        citation="D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey, "
+        '"Dataset-Friction-Damper-with-Backlash", GitHub, 2022 (CC BY-SA 4.0).',
+        # The source's folder names hold spaces where ours hold underscores.
+        sources={name: name.replace("_", " ", 1) for name in _FRICTION_DAMPER_SHA256},
+    ),
 }
 
 
@@ -190,12 +245,39 @@ def _valid(folder, spec):
     return bad
 
 
+def _mirror(mirror):
+    return mirror if mirror is not None else os.environ.get(MIRROR_ENV)
+
+
 def _urls(spec, mirror):
-    mirror = mirror if mirror is not None else os.environ.get(MIRROR_ENV)
+    mirror = _mirror(mirror)
+    if mirror and spec.sources:
+        return [str(mirror).rstrip("/")]  # the base; each file under its name
     if mirror:
         name = spec.archive or next(iter(spec.sha256))
         return [f"{str(mirror).rstrip('/')}/{name}"]
     return [spec.url, *spec.extra_urls]
+
+
+def _file_url(spec, base, name, mirrored):
+    """The URL of one file of a benchmark published file by file."""
+    path = name if mirrored else spec.sources[name]
+    return f"{base}/{quote(path)}"
+
+
+def _download_files(spec, base, folder, mirrored):
+    """Download the missing or corrupt files of ``spec`` one by one from ``base``.
+
+    Stops at the first failure, raising OSError naming that file's URL.
+    """
+    for name in _valid(folder, spec):
+        url = _file_url(spec, base, name, mirrored)
+        target = folder / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            _download(url, target, known_hash=f"sha256:{spec.sha256[name]}")
+        except Exception as exc:  # re-raised with the URL of the file
+            raise OSError(f"{url} ({name}): {type(exc).__name__}: {exc}") from exc
 
 
 def _download(url, target, known_hash=None):
@@ -253,7 +335,9 @@ def _fetch(key, data_home, mirror):
     errors = []
     for url in _urls(spec, mirror):
         try:
-            if spec.archive is None:
+            if spec.sources:
+                _download_files(spec, url, folder, bool(_mirror(mirror)))
+            elif spec.archive is None:
                 (name,) = spec.sha256
                 _download(url, folder / name, known_hash=f"sha256:{spec.sha256[name]}")
             else:
@@ -261,7 +345,10 @@ def _fetch(key, data_home, mirror):
                     archive = _download(url, Path(tmp) / spec.archive)
                     _extract(archive, folder, list(spec.sha256))
         except Exception as exc:  # noqa: BLE001 - reported with every URL tried
-            errors.append(f"{url}: {type(exc).__name__}: {exc}")
+            if spec.sources:
+                errors.append(str(exc))  # names the file's URL
+            else:
+                errors.append(f"{url}: {type(exc).__name__}: {exc}")
             continue
         still = _valid(folder, spec)
         if not still:
@@ -269,6 +356,17 @@ def _fetch(key, data_home, mirror):
         errors.append(f"{url}: SHA256 mismatch of {still} after download")
         for name in still:
             (folder / name).unlink(missing_ok=True)
+    if spec.sources:
+        where = "; ".join(
+            f"{name} from {_file_url(spec, spec.url, name, False)}"
+            for name in _valid(folder, spec)
+        )
+        raise OSError(
+            f"could not fetch the {key} benchmark: {'; '.join(errors)}. Without "
+            f"network access, download each missing file yourself and put it into "
+            f"{folder} under its name (subfolder included): {where} (or pass the "
+            f"folder holding them to skhybrid.datasets.load_{key})."
+        )
     files = ", ".join(spec.sha256)
     source = spec.archive or next(iter(spec.sha256))
     raise OSError(
@@ -414,3 +512,40 @@ def fetch_wiener_hammerstein(data_home=None, *, mirror=None):
     from skhybrid.datasets._loaders import load_wiener_hammerstein
 
     return load_wiener_hammerstein(_fetch("wiener_hammerstein", data_home, mirror))
+
+
+def fetch_friction_damper(data_home=None, *, mirror=None):
+    """Download (once), check and load the friction damper with backlash.
+
+    The nine files of :func:`load_friction_damper` are downloaded one by one
+    from the source's GitHub repository
+    (ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash at commit
+    0e09aa9d950760277e31c08cd93fd01f39a5af09, ``data/dataset-2/``). The data
+    are licensed under CC BY-SA 4.0: cite D. Coble, P. Huggins, L. Cao, J.
+    Ricles, A. Downey, "Dataset-Friction-Damper-with-Backlash", GitHub, 2022.
+
+    Parameters
+    ----------
+    data_home : str or pathlib.Path or None, default=None
+        Where the files are kept (see :func:`get_data_home`), under
+        ``friction_damper_backlash/``.
+    mirror : str or None, default=None
+        Base URL of a mirror serving each file under its path relative to
+        ``friction_damper_backlash/`` (for example
+        ``<mirror>/earthquake_profiles/KocaeliDBE.json``); None uses the
+        ``SKHYBRID_DATA_MIRROR`` environment variable, else the official source.
+
+    Returns
+    -------
+    data : sklearn.utils.Bunch
+        What :func:`load_friction_damper` returns.
+
+    Raises
+    ------
+    OSError
+        When a file cannot be downloaded or does not hash as expected; the
+        message names its URL, the file and the folder to put it in.
+    """
+    from skhybrid.datasets._loaders import load_friction_damper
+
+    return load_friction_damper(_fetch("friction_damper", data_home, mirror))

@@ -4,13 +4,21 @@ The data are not shipped with the package and never downloaded: the caller names
 the folder that holds them (for example a clone's ``../shared/data``).
 """
 
+import json
 from pathlib import Path
 
 import numpy as np
 from scipy.io import loadmat
 from sklearn.utils import Bunch
 
-__all__ = ["load_cascaded_tanks", "load_emps", "load_silverbox"]
+__all__ = [
+    "load_cascaded_tanks",
+    "load_coupled_electric_drives",
+    "load_emps",
+    "load_friction_damper",
+    "load_silverbox",
+    "load_wiener_hammerstein",
+]
 
 
 def _find_file(path, subfolder, filename, loader):
@@ -612,4 +620,210 @@ def load_wiener_hammerstein(path):
         input_names=["u"],
         output_names=["y"],
         DESCR=_WH_DESCR,
+    )
+
+
+_FRICTION_DAMPER_DESCR = """\
+Friction damper with backlash (measured)
+----------------------------------------
+
+A banded rotary friction device (BRFD), a semi-active friction damper, driven
+in displacement by two actuators (dataset 2 of the source, April 2023 tests,
+30 lb band tension). Inputs: displacement x (in) and velocity v (in/s); output:
+the friction force F (kip), which shows hysteresis, stick-slip and backlash
+dead bands. Each file is one test: an N x 6 matrix of columns t (s), x (in),
+F (kip), v (in/s), actuator force 1 (lb) and actuator force 2 (lb), sampled at
+1024 Hz. Seven harmonic characterisation tests (sinusoidal displacement of 0.5,
+1 or 1.5 in at 0.5, 1 or 2 Hz; 3585 to 14337 samples) are the training splits
+``train_<file>``, and two predefined earthquake displacements (Kocaeli and
+Imperial Valley at the DBE level; 27342 and 28698 samples) the test splits
+``test_<file>``, as the companion paper's reproduction folder groups them. The
+data set has no official split nor protocol: n_init = 50 samples (about 49 ms)
+is our choice of the window that may initialise a model's state.
+
+Source: github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash at
+commit 0e09aa9d950760277e31c08cd93fd01f39a5af09, data/dataset-2/.
+
+Cite: D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey,
+"Dataset-Friction-Damper-with-Backlash", GitHub, 2022. Device: A. Downey, L.
+Cao, S. Laflamme, D. Taylor, J. Ricles, "High capacity variable friction damper
+based on band brake technology", Engineering Structures 113:287-298, 2016.
+
+License: CC BY-SA 4.0 (Creative Commons Attribution-ShareAlike 4.0
+International), http://creativecommons.org/licenses/by-sa/4.0/.
+"""
+
+_FRICTION_DAMPER_CITATION = (
+    "D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey, "
+    '"Dataset-Friction-Damper-with-Backlash", GitHub, 2022, '
+    "https://github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash."
+)
+_FRICTION_DAMPER_LICENSE = "CC BY-SA 4.0"
+
+#: The files the friction-damper loader reads, relative to its folder: the
+#: harmonic (training) tests, then the earthquake (test) profiles.
+_FRICTION_DAMPER_FILES = (
+    *(
+        f"characterization_datasets/{stem}.json"
+        for stem in (
+            "0.5Hz30lbtension0.5amplitude",
+            "0.5Hz30lbtension1.5amplitude",
+            "0.5Hz30lbtension1amplitude",
+            "1Hz30lbtension0.5amplitude",
+            "1Hz30lbtension1.5amplitude",
+            "1Hz30lbtension1amplitude",
+            "2Hz30lbtension0.5amplitude",
+        )
+    ),
+    "earthquake_profiles/ImperialValleyDBE.json",
+    "earthquake_profiles/KocaeliDBE.json",
+)
+
+
+def _friction_damper_record(file, dt, n_init):
+    """The N x 6 matrix of one friction-damper file, checked."""
+
+    def fail(problem):
+        raise ValueError(f"load_friction_damper: {file}: {problem}.")
+
+    try:
+        with open(file, encoding="utf-8") as handle:
+            content = json.load(handle)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        fail(
+            f"is not a readable JSON file ({type(exc).__name__}: {exc}); it may be "
+            f"truncated, empty or of another format. Replace it with the data "
+            f"set's original file"
+        )
+    if not isinstance(content, dict) or "data" not in content:
+        got = sorted(content) if isinstance(content, dict) else type(content).__name__
+        fail(f'must hold an object with a "data" matrix; got {got}')
+    try:
+        matrix = np.asarray(content["data"])
+    except ValueError as exc:  # ragged rows
+        fail(f'"data" must be an N x 6 numeric matrix; got ragged rows ({exc})')
+    if matrix.dtype.kind not in "iuf":
+        fail(
+            f'"data" must be an N x 6 numeric matrix; got entries of type '
+            f"{matrix.dtype} (a non-number or null value)"
+        )
+    if matrix.ndim != 2 or matrix.shape[1] != 6:
+        fail(
+            f'"data" must be an N x 6 numeric matrix (t, x, F, v, actuator '
+            f"forces 1 and 2); got shape {matrix.shape}"
+        )
+    matrix = matrix.astype(float)
+    bad = np.argwhere(~np.isfinite(matrix))
+    if bad.size:
+        row, col = bad[0]
+        fail(
+            f'"data" must hold finite values; got data[{row}][{col}]='
+            f"{float(matrix[row, col])!r} ({len(bad)} non-finite of {matrix.size})"
+        )
+    _check_record_length(matrix.shape[0], n_init, f"load_friction_damper: {file}")
+    steps = np.diff(matrix[:, 0])
+    off = np.flatnonzero(np.abs(steps - dt) > 1e-6 * dt)
+    if off.size:
+        k = int(off[0])
+        fail(
+            f"the time column must advance by dt = 1/1024 s at every sample; got "
+            f"t[{k + 1}] - t[{k}] = {float(steps[k]):.9g} s ({off.size} uneven "
+            f"steps of {steps.size})"
+        )
+    return matrix
+
+
+def load_friction_damper(path):
+    """Load the friction damper with backlash (a banded rotary friction device).
+
+    Measured data of a semi-active friction damper driven in displacement:
+    inputs displacement and velocity, output the friction force, with
+    hysteresis, stick-slip and backlash. The seven harmonic characterisation
+    tests at 30 lb band tension are the training splits and the two earthquake
+    profiles at the DBE level the test splits. The data are licensed under
+    CC BY-SA 4.0 (Creative Commons Attribution-ShareAlike 4.0 International):
+    cite D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey,
+    "Dataset-Friction-Damper-with-Backlash", GitHub, 2022
+    (github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Folder holding the subfolders ``characterization_datasets/`` and
+        ``earthquake_profiles/`` (the files of the source's ``data/dataset-2/``,
+        with ``_`` for the spaces of the folder names), or its parent holding
+        ``friction_damper_backlash/``.
+
+    Returns
+    -------
+    data : :class:`~sklearn.utils.Bunch`
+        Dictionary-like object with:
+
+        splits : dict of str to Bunch
+            One per file, named after it without ``.json``: the harmonic tests
+            ``"train_0.5Hz30lbtension0.5amplitude"``, ...,
+            ``"train_2Hz30lbtension0.5amplitude"`` (sorted by name), then the
+            earthquake profiles ``"test_ImperialValleyDBE"`` and
+            ``"test_KocaeliDBE"``. Each is a Bunch of ``u`` of shape
+            (n_times, 2), the columns displacement x (in) and velocity v (in/s),
+            and ``y`` of shape (n_times, 1), the friction force F (kip).
+        n_init : int
+            Samples at the start of a test split that may initialise a model's
+            state (50, about 49 ms). The data set has no official protocol; this
+            window is our choice.
+        dt : float
+            Sample period (s), ``1 / 1024``.
+        input_names, output_names : list of str
+            ``["displacement [in]", "velocity [in/s]"]`` and
+            ``["friction force [kip]"]``.
+        citation : str
+            What to cite when using the data.
+        license : str
+            ``"CC BY-SA 4.0"``.
+        DESCR : str
+            Description, splits, source, citation and license.
+
+    Raises
+    ------
+    FileNotFoundError
+        When a file is in neither ``path`` nor its ``friction_damper_backlash/``
+        subfolder; the message names the file and the folder.
+    ValueError
+        When a file is not readable JSON, its ``"data"`` is not an N x 6 numeric
+        matrix, holds a NaN or infinite value, is shorter than ``n_init + 1``
+        samples, or its time column does not advance by 1/1024 s at every sample
+        (to 1e-6 relative); the message names the file and the problem.
+
+    See Also
+    --------
+    load_emps : Another measured system with dry friction.
+
+    Examples
+    --------
+    >>> from skhybrid.datasets import load_friction_damper
+    >>> data = load_friction_damper("path/to/shared/data")  # doctest: +SKIP
+    >>> data.splits["test_KocaeliDBE"].u.shape  # doctest: +SKIP
+    (27342, 2)
+    """
+    dt, n_init = 1.0 / 1024, 50
+    splits = {}
+    for name in _FRICTION_DAMPER_FILES:
+        file = _find_file(
+            path, "friction_damper_backlash", name, "load_friction_damper"
+        )
+        matrix = _friction_damper_record(file, dt, n_init)
+        role = "train" if name.startswith("characterization") else "test"
+        splits[f"{role}_{Path(name).stem}"] = Bunch(
+            u=matrix[:, [1, 3]].copy(), y=matrix[:, [2]].copy()
+        )
+    order = sorted(splits, key=lambda key: (not key.startswith("train_"), key))
+    return Bunch(
+        splits={key: splits[key] for key in order},
+        n_init=n_init,
+        dt=dt,
+        input_names=["displacement [in]", "velocity [in/s]"],
+        output_names=["friction force [kip]"],
+        citation=_FRICTION_DAMPER_CITATION,
+        license=_FRICTION_DAMPER_LICENSE,
+        DESCR=_FRICTION_DAMPER_DESCR,
     )

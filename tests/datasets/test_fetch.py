@@ -5,7 +5,8 @@ sources publish them (zipped where the official download is an archive); the
 fetchers are pointed at it with ``mirror=``. Checked: download and load, reuse of
 the cache without a request, a corrupted cached file (hash mismatch: downloaded
 again), a corrupted download (refused, named), and no network (an error naming
-the URL, the files and the folder to put them in).
+the URL, the files and the folder to put them in). The friction damper, published
+file by file, is served as a tree: one request per file.
 """
 
 import threading
@@ -21,12 +22,14 @@ from skhybrid.datasets import (
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
     fetch_emps,
+    fetch_friction_damper,
     fetch_silverbox,
     fetch_wiener_hammerstein,
     get_data_home,
     load_cascaded_tanks,
     load_coupled_electric_drives,
     load_emps,
+    load_friction_damper,
     load_silverbox,
     load_wiener_hammerstein,
 )
@@ -36,7 +39,8 @@ pytestmark = pytest.mark.skipif(
     not DATA.is_dir(), reason=f"the benchmark data folder {DATA} is absent"
 )
 
-#: (fetcher, loader, folder in shared/data, archive name or None, folder inside it)
+#: (fetcher, loader, folder in shared/data, archive name or None: the files as
+#: they are, subfolders included)
 CASES = {
     "silverbox": (fetch_silverbox, load_silverbox, "silverbox", "SilverboxFiles.zip"),
     "emps": (fetch_emps, load_emps, "emps", "EMPS.zip"),
@@ -58,7 +62,15 @@ CASES = {
         "wiener_hammerstein",
         None,
     ),
+    "friction_damper": (
+        fetch_friction_damper,
+        load_friction_damper,
+        "friction_damper_backlash",
+        None,
+    ),
 }
+#: Requests a first fetch makes, where not 1 (a benchmark published file by file).
+REQUESTS = {"friction_damper": 9}
 
 
 class _Counting(SimpleHTTPRequestHandler):
@@ -77,11 +89,14 @@ def server(tmp_path_factory):
     """Serve the official archives and files from a folder on localhost."""
     root = tmp_path_factory.mktemp("served")
     for _, _, folder, archive in CASES.values():
-        files = sorted(p for p in (DATA / folder).iterdir() if p.is_file())
         if archive is None:
-            for path in files:
-                (root / path.name).write_bytes(path.read_bytes())
+            for path in sorted((DATA / folder).rglob("*")):
+                if path.is_file():
+                    target = root / path.relative_to(DATA / folder)
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    target.write_bytes(path.read_bytes())
             continue
+        files = sorted(p for p in (DATA / folder).iterdir() if p.is_file())
         inner = archive.removesuffix(".zip")
         with zipfile.ZipFile(root / archive, "w") as zipped:
             for path in files:
@@ -111,11 +126,12 @@ def test_fetch_downloads_checks_and_loads_then_reuses_the_cache(name, server, tm
     url, _ = server
     fetch, load, folder, _ = CASES[name]
     _Counting.requests.clear()
+    n_requests = REQUESTS.get(name, 1)
     data = fetch(tmp_path, mirror=url)
-    assert len(_Counting.requests) == 1
+    assert len(_Counting.requests) == n_requests
     _same(data, load(DATA / folder))
     again = fetch(tmp_path, mirror=url)
-    assert len(_Counting.requests) == 1  # read from the cache, no request
+    assert len(_Counting.requests) == n_requests  # read from the cache, no request
     _same(again, data)
 
 
@@ -172,3 +188,81 @@ def test_the_mirror_can_come_from_the_environment(server, tmp_path, monkeypatch)
 def test_data_home_rejects_a_non_path():
     with pytest.raises(TypeError, match=r"data_home must be a str or pathlib\.Path"):
         get_data_home(3)
+
+
+FRICTION = "friction_damper_backlash"
+
+
+def test_friction_damper_files_come_one_by_one_under_their_paths(server, tmp_path):
+    url, _ = server
+    _Counting.requests.clear()
+    data = fetch_friction_damper(tmp_path, mirror=url)
+    assert sorted(_Counting.requests) == sorted(
+        f"/{p.relative_to(DATA / FRICTION).as_posix()}"
+        for p in (DATA / FRICTION).rglob("*.json")
+    )
+    assert (tmp_path / FRICTION / "earthquake_profiles" / "KocaeliDBE.json").is_file()
+    assert data.license == "CC BY-SA 4.0"
+
+
+def test_a_corrupted_cached_friction_damper_file_alone_is_downloaded_again(
+    server, tmp_path
+):
+    url, _ = server
+    fetch_friction_damper(tmp_path, mirror=url)
+    cached = tmp_path / FRICTION / "earthquake_profiles" / "KocaeliDBE.json"
+    cached.write_bytes(cached.read_bytes()[:-10])
+    _Counting.requests.clear()
+    data = fetch_friction_damper(tmp_path, mirror=url)
+    assert _Counting.requests == ["/earthquake_profiles/KocaeliDBE.json"]
+    assert (
+        cached.read_bytes()
+        == (DATA / FRICTION / "earthquake_profiles" / "KocaeliDBE.json").read_bytes()
+    )
+    _same(data, load_friction_damper(DATA))
+
+
+def test_a_corrupted_friction_damper_download_is_refused_and_named(server, tmp_path):
+    url, root = server
+    bad = root / "bad-friction"
+    for path in (root / "characterization_datasets").iterdir():
+        target = bad / "characterization_datasets" / path.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(path.read_bytes())
+    (bad / "earthquake_profiles").mkdir(exist_ok=True)
+    (bad / "earthquake_profiles" / "ImperialValleyDBE.json").write_bytes(b"{}")
+    with pytest.raises(OSError, match=r"ImperialValleyDBE\.json") as info:
+        fetch_friction_damper(tmp_path / "home", mirror=f"{url}/bad-friction")
+    message = str(info.value)
+    assert "SHA256" in message or "hash" in message.lower()
+    folder = tmp_path / "home" / FRICTION
+    assert not (folder / "earthquake_profiles" / "ImperialValleyDBE.json").exists()
+    # The files that hashed right stay: a later fetch asks for the rest only.
+    assert (
+        folder / "characterization_datasets" / "1Hz30lbtension1amplitude.json"
+    ).is_file()
+
+
+def test_without_network_the_friction_damper_error_names_url_file_and_folder(tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(OSError) as info:
+        fetch_friction_damper(tmp_path, mirror=f"http://127.0.0.1:{port}/")
+    message = str(info.value)
+    first = "characterization_datasets/0.5Hz30lbtension0.5amplitude.json"
+    assert f"http://127.0.0.1:{port}/{first}" in message
+    assert str(tmp_path / FRICTION) in message
+    # Every file, with its official URL (the source's folder names hold spaces).
+    official = (
+        "https://raw.githubusercontent.com/ARTS-Laboratory/"
+        "Dataset-Friction-Damper-with-Backlash/"
+        "0e09aa9d950760277e31c08cd93fd01f39a5af09/data/dataset-2/"
+    )
+    assert f"{official}earthquake%20profiles/KocaeliDBE.json" in message
+    assert f"{official}characterization%20datasets/2Hz30lbtension0.5amplitude.json" in (
+        message
+    )
+    assert "earthquake_profiles/ImperialValleyDBE.json" in message

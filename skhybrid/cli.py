@@ -101,6 +101,7 @@ MEASURED_SYSTEMS = (
     "silverbox",
     "coupled-electric-drives",
     "wiener-hammerstein",
+    "friction-damper",
 )
 
 
@@ -297,7 +298,7 @@ def _list(out, data=None):
 
     for name, (kind, title, shows) in CATALOG.items():
         extra = f"; {_data_status(name, data)}" if kind == "measured" else ""
-        out.write(f"{name:<16} {kind:<9} {title} ({shows}{extra})\n")
+        out.write(f"{name:<24} {kind:<9} {title} ({shows}{extra})\n")
 
 
 def _error(message):

@@ -12,11 +12,13 @@ from skhybrid.datasets import (
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
     fetch_emps,
+    fetch_friction_damper,
     fetch_silverbox,
     fetch_wiener_hammerstein,
     load_cascaded_tanks,
     load_coupled_electric_drives,
     load_emps,
+    load_friction_damper,
     load_silverbox,
     load_wiener_hammerstein,
 )
@@ -27,6 +29,7 @@ from skhybrid.experiments._measured_physics import (
     best_start,
     ced_physics,
     emps_physics,
+    friction_damper_physics,
     silverbox_physics,
     tanks_physics,
     with_next_input,
@@ -281,6 +284,38 @@ class WienerHammerstein(MeasuredSystem):
         )
 
 
+class FrictionDamper(MeasuredSystem):
+    name = "friction-damper"
+    title = "Band friction damper with backlash, ARTS-Lab dataset 2 (measured)"
+    unit = "kip"
+
+    def make_spec(self, data=None, quick=False):
+        def load():
+            return (
+                fetch_friction_damper() if data is None else load_friction_damper(data)
+            )
+
+        d = load()
+        train = [k for k in d.splits if k.startswith("train_")]
+        tests = [k for k in d.splits if k.startswith("test_")]
+        records = [_pair(d.splits[k]) for k in train]
+        if quick:  # the three 7169-sample tests at 1 Hz
+            records = [_pair(d.splits[k]) for k in train if k.startswith("train_1Hz")]
+        return SystemSpec(
+            self.name,
+            records=records,
+            # The data sheet: dry friction of a band behind a backlash (Dahl).
+            physics=friction_damper_physics(max_nfev=40),
+            n_init=d.n_init,
+            dt=d.dt,
+            tests=lambda: {k[len("test_") :]: _pair(load().splits[k]) for k in tests},
+            inputs=None,
+            title=self.title,
+            unit=self.unit,
+            notes=BUILTIN_NOTES[self.name],
+        )
+
+
 def _pair(split):
     return (split.u, split.y)
 
@@ -314,6 +349,11 @@ BUILTIN_NOTES = {
         "needs a StateSpaceModel physics; the static nonlinearity is left to the "
         "corrections."
     ),
+    "friction-damper": (
+        "The default family. No official split or protocol: the harmonic tests "
+        "estimate, the earthquake profiles test, n_init = 50 (49 ms); no "
+        "published figure, so the linear ARX is the linear reference."
+    ),
 }
 
 MEASURED_SYSTEMS = {
@@ -324,6 +364,7 @@ MEASURED_SYSTEMS = {
         Silverbox,
         CoupledElectricDrives,
         WienerHammerstein,
+        FrictionDamper,
     )
 }
 
@@ -337,8 +378,10 @@ def benchmark_spec(name, data=None, *, quick=False):
 
     Parameters
     ----------
-    name : {"cascaded-tanks", "emps", "silverbox"}
-        The benchmark.
+    name : str
+        The benchmark: ``"cascaded-tanks"``, ``"emps"``, ``"silverbox"``,
+        ``"coupled-electric-drives"``, ``"wiener-hammerstein"`` or
+        ``"friction-damper"`` (``skhybrid list``).
     data : str or Path or None, default=None
         Folder holding its files; None fetches them once into the data home.
     quick : bool, default=False

@@ -53,6 +53,11 @@ CATALOG = {
         "Wiener-Hammerstein electronic circuit, SYSID 2009 (measured)",
         "official split; test",
     ),
+    "friction-damper": (
+        "measured",
+        "Band friction damper with backlash, ARTS-Lab dataset 2 (measured)",
+        "harmonic tests estimate; KocaeliDBE, ImperialValleyDBE",
+    ),
 }
 
 #: measured system -> (subfolder of the data folder, the files its loader reads)
@@ -62,4 +67,12 @@ DATA_FILES = {
     "silverbox": ("silverbox", ("SNLS80mV.mat",)),
     "coupled-electric-drives": ("coupled_electric_drives", ("DATAUNIF.MAT",)),
     "wiener-hammerstein": ("wiener_hammerstein", ("WienerHammerBenchMark.mat",)),
+    "friction-damper": (
+        "friction_damper_backlash",
+        (
+            "characterization_datasets/1Hz30lbtension1amplitude.json",
+            "earthquake_profiles/KocaeliDBE.json",
+            "earthquake_profiles/ImperialValleyDBE.json",
+        ),
+    ),
 }

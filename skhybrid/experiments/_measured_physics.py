@@ -614,3 +614,62 @@ def best_start(make, starts, U, Y, *, max_nfev=15):
     if best is not None:
         chosen.set_params(params=dict(best.params_))
     return chosen
+
+
+# -- friction damper with backlash --------------------------------------------------
+def band_friction(x, u, *, xp, gap, sigma, Fc, **params):
+    """A band brake's dry friction (Dahl) behind a backlash (discrete time).
+
+    The data sheet's device (a banded rotary friction damper driven in
+    displacement): the band engages the drum after a gap, so the friction's
+    own displacement ``s`` follows the actuator's ``d = u[:, 0]`` only beyond
+    ``+-gap`` (a backlash); the friction force ``z`` follows Dahl's model in
+    ``s``, ``dz/ds = sigma (1 - sign(ds) z / Fc)``, integrated exactly over
+    each step (no step-size limit).
+    """
+    s, z = x[:, 0], x[:, 1]
+    d = u[:, 0]
+    s_next = xp.minimum(xp.maximum(s, d - gap), d + gap)
+    ds = s_next - s
+    target = xp.sign(ds) * Fc
+    z_next = target + (z - target) * xp.exp(-sigma * xp.abs(ds) / Fc)
+    return xp.stack([s_next, z_next], axis=1)
+
+
+def band_friction_output(x, *, xp, offset, **params):
+    """The load cell: the friction force plus an offset."""
+    return x[:, 1:2] + offset
+
+
+def _band_guess(outputs, inputs):
+    """The band at the actuator's position, the force at its first measured value."""
+    y0 = np.asarray(outputs)[:, 0, 0]
+    d0 = np.asarray(inputs)[:, 0, 0]
+    return np.column_stack([d0, y0])
+
+
+def friction_damper_physics(*, max_nfev=40):
+    """The friction damper's grey-box :class:`StateSpaceModel` (inches, kip).
+
+    Parameters
+    ----------
+    max_nfev : int, default=40
+        Most residual evaluations of the fit.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        Unfitted; the band's displacement and the friction force are latent
+        (the load cell reads the force plus an offset).
+    """
+    return StateSpaceModel(
+        band_friction,
+        {"gap": 0.05, "sigma": 50.0, "Fc": 2.0, "offset": 0.0},
+        state_names=["band displacement (latent)", "friction force (latent)"],
+        output=band_friction_output,
+        time="discrete",
+        initial_state=_band_guess,
+        n_init=50,
+        bounds={"gap": (0.0, 0.5), "sigma": (1.0, 1e4), "Fc": (0.01, 20.0)},
+        max_nfev=max_nfev,
+    )

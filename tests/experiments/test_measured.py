@@ -168,7 +168,11 @@ def test_windows_are_causal_and_edge_padded():
 
 
 def test_published_figures_are_data_with_sources():
-    assert set(PUBLISHED) == set(MEASURED_SYSTEMS)
+    # Every benchmark has its published figures, but the friction damper: none
+    # exists (its linear ARX is the linear reference).
+    assert set(PUBLISHED) == set(MEASURED_SYSTEMS) - {"friction-damper"}
+    assert PUBLISHED["wiener-hammerstein"]["test"]["linear (LTI SS)"][0] == 43.4
+    assert PUBLISHED["coupled-electric-drives"]["test_2"]["linear (LTI SS)"][0] == 0.384
     assert PUBLISHED["emps"]["test"]["state of the art (dynoNet)"][0] == 2.64
     assert PUBLISHED["cascaded-tanks"]["test"]["linear (LTI SS)"][0] == 0.588
     for splits in PUBLISHED.values():

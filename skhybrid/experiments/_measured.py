@@ -399,6 +399,8 @@ class MeasuredResult:
         self.fits = {}
         self.estimators = {}
         self.hull = {}
+        #: First scored sample of each test record (default: ``n_init``).
+        self.score_start = {}
         self.wall_time = float("nan")
 
     @property
@@ -425,7 +427,8 @@ class MeasuredResult:
             NaN where the free run failed.
         """
         y = self.tests[split][1]
-        return self.system.scale * _rmse(y, self.predictions[split][model], self.n_init)
+        start = self.score_start.get(split, self.n_init)
+        return self.system.scale * _rmse(y, self.predictions[split][model], start)
 
     def validation_rmse(self):
         """``{model: validation-tail RMSE}`` (official units) of the quoted models."""

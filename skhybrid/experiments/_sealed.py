@@ -129,6 +129,18 @@ def score_tests(result, tests):
                     result.fits[model].setdefault("selection", {})
                     result.fits[model]["selection"]["diverged_on_" + split] = error
             result.predictions[split][model] = pred
+    if result.system.spec.score_from_estimation_start:
+        U_est, Y_est = result.train
+        for split, (u, y) in tests.items():
+            name = f"{split}{ORIGINAL_PROTOCOL}"
+            result.tests[name] = (u, y)
+            result.score_start[name] = 0
+            result.predictions[name] = {
+                model: _from_estimation_start(
+                    result.estimators.get(model), u, U_est[0], Y_est[0], result.n_init
+                )
+                for model in result.fits
+            }
     if "test_arrow_full" in tests:
         from skhybrid.experiments._measured import _hull_exit
 
@@ -140,6 +152,33 @@ def score_tests(result, tests):
         for model in result.predictions[split]
         for row in result.model_rows(split, model)
     ]
+
+
+#: Suffix of a test record scored from the estimation record's initial state.
+ORIGINAL_PROTOCOL = "_original_protocol"
+
+
+def _from_estimation_start(model, u, u_est, y_est, n_init):
+    """Free run of ``u`` from the state estimated on the estimation record's window.
+
+    Defined for a :class:`~skhybrid.domain.StateSpaceModel` physics (behind
+    transformed inputs) and its static corrections; NaN for other models.
+    """
+    nan = np.full(len(u), np.nan)
+    correction = model if hasattr(model, "correct") else None
+    physics = getattr(model, "physics", None) if correction is not None else model
+    inner = getattr(physics, "estimator", physics)
+    if not hasattr(inner, "simulate_from_state"):
+        return nan
+    feed = physics.inputs if hasattr(physics, "inputs") else (lambda a: a)
+    try:
+        x0 = inner.estimate_initial_state(feed(u_est[:n_init]), y_est[:n_init])
+        y_phys = np.ravel(inner.simulate_from_state(feed(u), x0))
+        if correction is not None:
+            y_phys = correction.correct(u, y_phys)
+    except (ValueError, FloatingPointError, ArithmeticError):
+        return nan
+    return np.ravel(y_phys).astype(float)
 
 
 def _spread(values):

@@ -192,6 +192,13 @@ class SystemSpec:
         drawn within pieces).
     notes : str, default=""
         Why the spec departs from the default family, shown in the report.
+    score_from_estimation_start : bool, default=False
+        Also score every test record under a second protocol, ``<test>_original
+        _protocol``: the free run starts from the initial state estimated on the
+        first estimation record's initialisation window (the state is the same
+        at the start of both records) and every sample is scored. Defined for
+        models whose physics is a :class:`~skhybrid.domain.StateSpaceModel`
+        (the physics and its static corrections); the others score NaN there.
 
     Examples
     --------
@@ -233,6 +240,7 @@ class SystemSpec:
     hybrids: object = "auto"
     hybrid_records: int = 4
     notes: str = ""
+    score_from_estimation_start: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name.strip():

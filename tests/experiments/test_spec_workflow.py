@@ -274,3 +274,35 @@ def test_system_spec_is_public_and_documented():
     for name in ("SystemSpec", "run_system", "benchmark_spec"):
         assert name in experiments.__all__
     assert "n_init" in SystemSpec.__doc__ and "selection.json" in run_system.__doc__
+
+
+def test_the_original_protocol_starts_from_the_estimation_records_state(
+    machine, tmp_path
+):
+    spec = machine.make_spec(
+        out=tmp_path / "run", hybrids=None, score_from_estimation_start=True
+    )
+    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0])
+    scores = summary["test_rmse"]["test_original_protocol"]
+    # Defined for the physics and its corrections; not for the black boxes.
+    assert np.isfinite(scores["physics"]["mean"])
+    assert np.isfinite(scores["physics + linear"]["mean"])
+    assert scores["linear ARX"]["mean"] is None
+
+    # The physics' free run from the state of the first estimation record's start,
+    # scored over every sample.
+    from skhybrid.experiments._sealed import _from_estimation_start
+
+    (u0, y0), _ = machine.record(600, 0), None
+    u, y = machine.record(400, 7)
+    folder = tmp_path / "run" / "models" / "toy-machine-seed-0"
+    import joblib
+
+    physics = joblib.load(folder / "physics.joblib")
+    x0 = physics.estimator.estimate_initial_state(u0[:10], y0[:10])
+    expected = physics.estimator.simulate_from_state(u, x0)
+    np.testing.assert_allclose(
+        _from_estimation_start(physics, u, u0, y0, 10), np.ravel(expected)
+    )
+    rmse = np.sqrt(np.mean((np.ravel(expected) - y[:, 0]) ** 2))
+    assert scores["physics"]["mean"] == pytest.approx(rmse)

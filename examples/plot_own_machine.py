@@ -17,7 +17,7 @@ as pandas DataFrames with a time index. Run it with::
 
     python examples/plot_own_machine.py
 
-It runs ``quick=True`` with two seeds (about 20 s on two cores): short fits
+It runs ``quick=True`` with two seeds (20 to 35 s on two cores): short fits
 and fewer candidates, a smoke test of the workflow rather than a figure to
 quote. Drop ``quick=True`` (and keep the default three seeds) for a real run.
 """

@@ -75,6 +75,23 @@ class ParametricModel(DomainModel):
     --------
     PendulumModel : A built-in physics model.
 
+    Notes
+    -----
+    **When a one-step fit is biased.** ``fit`` minimises the one-step (equation)
+    error: each row's prediction against the next measured output. Where the rows'
+    inputs hold *noisy measured outputs* (a window of past positions from which
+    ``func`` reads a velocity, say), the regressors are noisy too and the least
+    squares are biased (errors-in-variables): a damping fitted several standard
+    errors from the truth, with no warning, since ``params_std_`` assumes
+    noise-free inputs; more data shrinks the standard errors, not the bias. Fit
+    such physics by its simulation (free-run) error instead: write it as a
+    :class:`~skhybrid.domain.StateSpaceModel` with the unmeasured states latent and
+    use :meth:`~skhybrid.domain.StateSpaceModel.fit_simulation` (multiple shooting:
+    on segments of long records), or describe the system as a
+    :class:`~skhybrid.experiments.SystemSpec` and let
+    :func:`~skhybrid.experiments.run_system` fit it so and choose on validation
+    tails.
+
     Examples
     --------
     >>> import numpy as np

@@ -213,6 +213,19 @@ class HybridBoostingRegressor(
     (one episode, or episodes one after the other); so do ``validation_fraction``,
     ``residual_whiteness_`` and the ``"ar"`` noise model.
 
+    **When a one-step fit is biased.** Every stage is fitted one step ahead.
+    Where the rows' inputs hold *noisy measured outputs* (past positions, say),
+    the physics stage's one-step fit is biased (errors-in-variables: a damping
+    fitted several standard errors from the truth, with no warning; see
+    :class:`~skhybrid.domain.ParametricModel`), and a network boosted on those
+    one-step residuals learns from noisy past outputs that a free run does not
+    have: it can lower the one-step error and make the free-run simulation
+    worse. For a model to be simulated, fit the physics by simulation error
+    (:meth:`~skhybrid.domain.StateSpaceModel.fit_simulation`, multiple shooting
+    over segments) and compare candidates by their free runs, as
+    :func:`~skhybrid.experiments.run_system` does for a
+    :class:`~skhybrid.experiments.SystemSpec`.
+
     Examples
     --------
     A linear physics stage, then a small network on what it leaves:

@@ -525,7 +525,10 @@ class _Plan:
         if args.spec is not None:
             from skhybrid.experiments._measured import MeasuredSystem
 
-            self.system = MeasuredSystem.from_spec(_load_spec(args.spec))
+            try:
+                self.system = MeasuredSystem.from_spec(_load_spec(args.spec))
+            except TypeError as exc:
+                raise _SpecError(f"--system {args.spec}: {exc}") from None
         elif self.measured:
             self.system = _system(args.system)
         if self.measured:

@@ -25,7 +25,7 @@ from skhybrid.datasets import (
 from skhybrid.experiments._measured import MeasuredSystem
 from skhybrid.experiments._measured_physics import (
     CED_STARTS,
-    LinearOutputErrorModel,
+    _LinearOutputError,
     best_start,
     ced_physics,
     emps_physics,
@@ -275,7 +275,7 @@ class WienerHammerstein(MeasuredSystem):
             records=[(train.u[:n], train.y[:n])],
             # The data sheet: two linear filters around a static nonlinearity,
             # nominal order 6; the physics is the best linear approximation.
-            physics=LinearOutputErrorModel(order=6, max_nfev=50),
+            physics=_LinearOutputError(order=6, max_nfev=50),
             n_init=d.n_init,
             dt=d.dt,
             tests=lambda: {"test": _pair(load().splits["test"])},

@@ -142,6 +142,7 @@ class MeasuredSystem:
         """
         if not isinstance(spec, SystemSpec):
             raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
+        _check_picklable(spec)
         return cls(spec)
 
     def make_spec(self, data=None, quick=False):
@@ -725,10 +726,8 @@ def measured_identity(system, quick, seeds):
 
 
 def _run_folder(
-    system, words, out, *, data, quick, seeds, n_jobs, overwrite, resume, progress
+    system, command, out, *, data, quick, seeds, n_jobs, overwrite, resume, progress
 ):
-    import shlex
-
     from skhybrid.experiments._report import write_report
     from skhybrid.experiments._sealed import run_seeds
     from skhybrid.experiments._store import RunFolder
@@ -738,7 +737,7 @@ def _run_folder(
     try:
         folder.start(
             identity,
-            "skhybrid " + shlex.join(words),
+            command,
             overwrite=overwrite,
             resume=resume,
         )
@@ -756,6 +755,21 @@ def _run_folder(
     finally:
         folder.lock.release()
     return run.summary()
+
+
+def _check_picklable(spec):
+    """Refuse, before any fit, a physics the run folder cannot store."""
+    import pickle
+
+    for name in ("physics", "physics_inputs"):
+        try:
+            pickle.dumps(getattr(spec, name))
+        except (pickle.PicklingError, AttributeError, TypeError) as exc:
+            raise TypeError(
+                f"spec.{name} cannot be pickled ({exc}), so its fitted models "
+                "cannot be kept in the run folder: define its functions at module "
+                "level in a file (not in a notebook cell, a lambda or a closure)."
+            ) from None
 
 
 def run_system(
@@ -818,11 +832,13 @@ def run_system(
     """
     system = MeasuredSystem.from_spec(spec)
     seeds = _check_seeds(seeds)
-    words = ["run", "--system", spec.name, "--out", str(out)]
-    words += ["--quick"] * bool(quick) + ["--seeds", *map(str, seeds)]
+    command = (
+        f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
+        f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"
+    )
     return _run_folder(
         system,
-        words,
+        command,
         out,
         data=None,
         quick=quick,
@@ -874,13 +890,15 @@ def run_measured(
         raise ValueError(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
         )
+    import shlex
+
     seeds = _check_seeds(seeds)
     words = ["run", name] + (["--data", str(data)] if data is not None else [])
     words += ["--out", str(out)] + ["--quick"] * bool(quick)
     words += ["--seeds", *map(str, seeds)]
     return _run_folder(
         MEASURED_SYSTEMS[name],
-        words,
+        "skhybrid " + shlex.join(words),
         out,
         data=data,
         quick=quick,

@@ -32,7 +32,6 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.domain import StateSpaceModel
 
 __all__ = [
-    "LinearOutputErrorModel",
     "duffing_foh",
     "emps_axis",
     "emps_physics",
@@ -321,7 +320,7 @@ lists of them
 
 
 # -- block-structured systems: the best linear approximation --------------------
-class LinearOutputErrorModel(BaseEstimator):
+class _LinearOutputError(BaseEstimator):
     """A linear output-error model ``y = B(q) / A(q) u + c`` fitted by simulation error.
 
     The physics a user writes for a block-structured system from its data sheet
@@ -415,7 +414,7 @@ class LinearOutputErrorModel(BaseEstimator):
 
         Returns
         -------
-        self : LinearOutputErrorModel
+        self : _LinearOutputError
             The fitted model.
         """
         U, Y = self._records(inputs, outputs)
@@ -482,7 +481,7 @@ class LinearOutputErrorModel(BaseEstimator):
         check_is_fitted(self)
         if init != "measured" or n_samples is not None or return_std:
             raise ValueError(
-                "LinearOutputErrorModel simulates from the measured window only, "
+                "_LinearOutputError simulates from the measured window only, "
                 f"without noise; got init={init!r}, n_samples={n_samples!r}, "
                 f"return_std={return_std!r}."
             )

@@ -436,6 +436,10 @@ def run_experiment(
         zoo = model_zoo(system, settings)
 
     key = result.store_key
+    if measured and folder is not None:
+        from skhybrid.experiments._spec import records_digest
+
+        folder.check_records(key, records_digest(*result.train))
     done = {} if folder is None else folder.finished(key)
     done = {name: record for name, record in done.items() if name in zoo}
     for name, record in done.items():

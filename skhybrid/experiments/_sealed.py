@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from skhybrid.experiments._measured_zoo import simulate_records
+from skhybrid.experiments._spec import records_digest
 
 __all__ = [
     "SELECTION_FILE",
@@ -31,7 +32,7 @@ __all__ = [
 SELECTION_FILE = "selection.json"
 
 
-def describe_spec(spec, U):
+def describe_spec(spec, U, Y=None):
     """What of a spec the selection depends on, as JSON-ready data.
 
     Parameters
@@ -40,6 +41,8 @@ def describe_spec(spec, U):
         The system.
     U : list of ndarray
         Its estimation records' inputs (their lengths are recorded).
+    Y : list of ndarray or None, default=None
+        Their outputs; with them, the records' SHA-256 is recorded too.
 
     Returns
     -------
@@ -53,6 +56,7 @@ def describe_spec(spec, U):
         "dt": spec.sample_period(),
         "n_init": spec.n_init,
         "record_lengths": [len(u) for u in U],
+        "records_sha256": None if Y is None else records_digest(U, Y),
         "physics": repr(physics)
         if hasattr(physics, "get_params")
         else (getattr(physics, "__qualname__", repr(physics))),
@@ -89,7 +93,7 @@ def seal(results, folder_path):
     """
     system = results[0].system
     selection = {
-        "system": describe_spec(system.spec, results[0].train[0]),
+        "system": describe_spec(system.spec, *results[0].train),
         "seeds": [r.selection() for r in results],
     }
     digest = hashlib.sha256(_canonical(selection).encode()).hexdigest()
@@ -106,7 +110,7 @@ def seal(results, folder_path):
     return sealed
 
 
-def score_tests(result, tests):
+def score_tests(result, tests, folder=None):
     """Simulate every fitted model of one seed on the test records.
 
     Parameters
@@ -115,6 +119,9 @@ def score_tests(result, tests):
         A sealed seed's result (``estimators`` fitted).
     tests : dict of str to tuple of ndarray
         ``{split: (u, y)}``, read after sealing.
+    folder : RunFolder or None, default=None
+        Where the free runs are kept (``models/<system>-seed-<S>/
+        test-predictions.npz``, keys ``<test>/<model>``).
     """
     result.tests = dict(tests)
     result.predictions = {split: {} for split in tests}
@@ -146,6 +153,16 @@ def score_tests(result, tests):
 
         first, count = _hull_exit(result.train, tests["test_arrow_full"], result.n_init)
         result.hull = {"test_arrow_full": {"first_outside": first, "n_outside": count}}
+    if folder is not None:
+        folder.save_arrays(
+            result.store_key,
+            "test-predictions",
+            {
+                f"{split}/{model}": pred
+                for split, preds in result.predictions.items()
+                for model, pred in preds.items()
+            },
+        )
     result.rows = [
         row
         for split in result.predictions
@@ -326,6 +343,12 @@ class MeasuredRun:
                 }
                 for r in self.results
             },
+            "physics_params_std": {
+                str(r.settings.seed): {
+                    k: p["std"] for k, p in r.params.get("physics", {}).items()
+                }
+                for r in self.results
+            },
             "hull": first.hull,
             "notes": self.system.spec.notes,
             "fit_time_s": {
@@ -390,7 +413,7 @@ def run_seeds(
     # The first read of the test records: after the selection file is written.
     tests = results[0].system.spec.test_records()
     for result in results:
-        score_tests(result, tests)
+        score_tests(result, tests, folder)
     run = MeasuredRun(results, sealed)
     run.wall_time = time.perf_counter() - start
     return run

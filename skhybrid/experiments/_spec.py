@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from sklearn.base import clone
 
-__all__ = ["SystemSpec", "as_records"]
+__all__ = ["SystemSpec", "as_records", "records_digest"]
 
 #: The default candidate family's initial horizon of the state-space hybrid
 #: (samples); the grid is this and four times it, kept below the records' length.
@@ -127,6 +127,29 @@ def as_records(records, *, inputs=None, outputs=None, name="records"):
         U.append(u)
         Y.append(y)
     return U, Y, dts
+
+
+def records_digest(U, Y):
+    """SHA-256 of records' values and shapes: what a resumed run must find again.
+
+    Parameters
+    ----------
+    U, Y : list of ndarray
+        Inputs and outputs of each record.
+
+    Returns
+    -------
+    digest : str
+        Hex digest.
+    """
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in (*U, *Y):
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
 
 
 @dataclass

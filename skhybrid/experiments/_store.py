@@ -388,6 +388,56 @@ class RunFolder:
         with open(self._model_dir(system) / name, "rb") as f:
             return joblib.load(f)
 
+    def save_arrays(self, system, name, arrays):
+        """Write named arrays beside a system's models (``<name>.npz``).
+
+        Parameters
+        ----------
+        system : str
+            The system's (and seed's) name in the folder.
+        name : str
+            The file's stem.
+        arrays : dict of str to ndarray
+            What to write.
+        """
+        folder = self._model_dir(system)
+        folder.mkdir(parents=True, exist_ok=True)
+
+        def save(p):
+            with open(p, "wb") as f:
+                np.savez(f, **arrays)
+
+        _write_atomic(folder / f"{_slug(name)}.npz", save)
+
+    def check_records(self, system, digest):
+        """Refuse to carry on a run whose records changed; record them otherwise.
+
+        Parameters
+        ----------
+        system : str
+            The system's (and seed's) name in the folder.
+        digest : str
+            SHA-256 of the records the run fits
+            (:func:`~skhybrid.experiments._spec.records_digest`).
+
+        Raises
+        ------
+        RunFolderError
+            The folder's finished models were fitted on other records.
+        """
+        folder = self._model_dir(system)
+        path = folder / "records.sha256"
+        if path.is_file() and self.finished(system):
+            if path.read_text().strip() != digest:
+                raise RunFolderError(
+                    f"--out {self.path} holds models of {system} fitted on other "
+                    "records (their SHA-256 differs); pass --overwrite to refit them "
+                    "on these records, or choose another --out"
+                )
+            return
+        folder.mkdir(parents=True, exist_ok=True)
+        _write_atomic(path, lambda p: p.write_text(digest + "\n"))
+
     def save_model(self, system, name, estimator, predictions, record, extras=None):
         """Write one finished model: fitted estimator, predictions, then record.
 

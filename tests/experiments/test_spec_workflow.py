@@ -306,3 +306,29 @@ def test_the_original_protocol_starts_from_the_estimation_records_state(
     )
     rmse = np.sqrt(np.mean((np.ravel(expected) - y[:, 0]) ** 2))
     assert scores["physics"]["mean"] == pytest.approx(rmse)
+
+
+def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
+    out = tmp_path / "run"
+    spec = machine.make_spec(out=out, hybrids=None)
+    run_system(spec, out, quick=True, seeds=[0])
+    # The same folder, the same settings, other records of the same lengths.
+    changed = machine.make_spec(
+        out=out, hybrids=None, records=[machine.record(600, 5), machine.record(440, 6)]
+    )
+    from skhybrid.experiments._store import RunFolderError
+
+    with pytest.raises(RunFolderError, match="fitted on other records"):
+        run_system(changed, out, quick=True, seeds=[0], resume=True)
+    sealed = json.loads((out / "selection.json").read_text())["selection"]
+    assert len(sealed["system"]["records_sha256"]) == 64
+    # The free runs on the test records are kept beside the models.
+    with np.load(out / "models" / "toy-machine-seed-0" / "test-predictions.npz") as f:
+        assert "test/physics" in f.files and f["test/physics"].shape == (400,)
+
+
+def test_a_physics_that_cannot_be_stored_is_refused_before_any_fit(machine, tmp_path):
+    physics = machine.physics().set_params(rhs=lambda x, u, *, xp, k, c, dt: x)
+    with pytest.raises(TypeError, match=r"spec\.physics cannot be pickled"):
+        run_system(machine.make_spec(physics=physics), tmp_path / "run", quick=True)
+    assert not (tmp_path / "run").exists()

@@ -209,9 +209,12 @@ def _spread(values):
             "max": None,
             "by_seed": values.tolist(),
         }
+    std = float(finite.std(ddof=1)) if finite.size > 1 else 0.0
+    if np.ptp(finite) <= 1e-12 * np.abs(finite).max():
+        std = 0.0  # the same figure at every seed, up to rounding of its mean
     return {
         "mean": float(finite.mean()),
-        "std": float(finite.std(ddof=1)) if finite.size > 1 else 0.0,
+        "std": std,
         "min": float(finite.min()),
         "max": float(finite.max()),
         "n_failed": int(values.size - finite.size),

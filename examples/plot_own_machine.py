@@ -27,13 +27,12 @@ import json
 import tempfile
 from pathlib import Path
 
-import joblib
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec, run_system
+from skhybrid.experiments import SystemSpec, load_fitted, run_system
 
 # %%
 # The machine and its records
@@ -163,19 +162,13 @@ for name in ("k", "c", "fc"):
 # %%
 # The chosen model's free run on the test record
 # ----------------------------------------------
-# Every fitted model lands in ``models/<name>-seed-<seed>/`` of the run folder,
-# a JSON record naming its ``joblib`` file. Load seed 0's chosen model and
-# simulate it from the test record's first ``n_init`` measured samples, as the
-# run scored it.
-seed, name = "0", results["chosen_model"]["0"]
-folder = out / "models" / f"{spec.name}-seed-{seed}"
-record = next(
-    r
-    for r in map(json.loads, map(Path.read_text, folder.glob("*.json")))
-    if r["model"] == name
-)
-model = joblib.load(folder / record["estimator"])
-physics_alone = joblib.load(folder / "physics.joblib")
+# Every fitted model lands in ``models/<name>-seed-<seed>/`` of the run folder.
+# :func:`~skhybrid.experiments.load_fitted` loads seed 0's chosen model (and,
+# by name, the physics alone); simulate each from the test record's first
+# ``n_init`` measured samples, as the run scored it.
+name = results["chosen_model"]["0"]
+model = load_fitted(out, seed=0)
+physics_alone = load_fitted(out, seed=0, model="physics")
 u, y = test[["force"]].to_numpy(), test[["position"]].to_numpy()
 n_init = spec.n_init
 runs = {

@@ -40,6 +40,7 @@ __all__ = [
     "MeasuredResult",
     "MeasuredSettings",
     "MeasuredSystem",
+    "load_fitted",
     "measured_identity",
     "run_measured",
     "run_system",
@@ -908,3 +909,71 @@ def run_measured(
         resume=False,
         progress=False,
     )
+
+
+def load_fitted(out, *, seed=0, model=None, system=None):
+    """A fitted model of a finished measured run: the chosen one by default.
+
+    Parameters
+    ----------
+    out : str or Path
+        The run folder (of :func:`run_system`, :func:`run_measured` or ``skhybrid
+        run``).
+    seed : int, default=0
+        Which seed's fit.
+    model : str or None, default=None
+        The model's name in the report (``"physics"``, ``"physics + dense"``...);
+        None loads the model chosen on validation at ``seed``.
+    system : str or None, default=None
+        The system's name; None where the folder holds one system.
+
+    Returns
+    -------
+    estimator : object
+        The fitted model; its ``simulate(inputs, initial)`` runs free from a
+        record's first ``n_init`` measured outputs, as the run scored it.
+
+    Examples
+    --------
+    >>> from skhybrid.experiments import load_fitted  # doctest: +SKIP
+    >>> chosen = load_fitted("runs/my-machine", seed=0)  # doctest: +SKIP
+    >>> y_sim = chosen.simulate(u_test, y_test[:10])  # doctest: +SKIP
+    """
+    import json
+
+    from skhybrid.experiments._store import RunFolder
+
+    folder = RunFolder(out)
+    try:
+        systems = json.loads((folder.path / "results.json").read_text())["systems"]
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"{folder.path} holds no finished run (no results.json)"
+        ) from None
+    if system is None:
+        if len(systems) != 1:
+            raise ValueError(
+                f"{folder.path} holds the systems {sorted(systems)}: name one with "
+                "system=..."
+            )
+        system = next(iter(systems))
+    if system not in systems or "chosen_model" not in systems[system]:
+        raise ValueError(
+            f"system must be a measured system of {folder.path}; got "
+            f"system={system!r} (it holds {sorted(systems)})."
+        )
+    summary = systems[system]
+    if str(seed) not in summary["chosen_model"]:
+        raise ValueError(
+            f"seed must be one of the run's seeds {summary['seeds']}; got "
+            f"seed={seed!r}."
+        )
+    if model is None:
+        model = summary["chosen_model"][str(seed)]
+    key = f"{system}-seed-{seed}"
+    finished = folder.finished(key)
+    if model not in finished:
+        raise ValueError(
+            f"model must be one of {sorted(finished)}; got model={model!r}."
+        )
+    return folder.load_estimator(key, finished[model])

@@ -332,3 +332,26 @@ def test_a_physics_that_cannot_be_stored_is_refused_before_any_fit(machine, tmp_
     with pytest.raises(TypeError, match=r"spec\.physics cannot be pickled"):
         run_system(machine.make_spec(physics=physics), tmp_path / "run", quick=True)
     assert not (tmp_path / "run").exists()
+
+
+def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
+    from skhybrid.experiments import load_fitted
+
+    out = tmp_path / "run"
+    summary = run_system(machine.make_spec(out=out), out, quick=True, seeds=[0, 1])
+    u, y = machine.record(400, 7)
+    for seed in (0, 1):
+        chosen = load_fitted(out, seed=seed)
+        pred = chosen.simulate(u, y[:10])
+        rmse = np.sqrt(np.mean((np.ravel(pred)[10:] - y[10:, 0]) ** 2))
+        assert rmse == pytest.approx(
+            summary["chosen_test_rmse"]["test"]["by_seed"][seed]
+        )
+    physics = load_fitted(out, seed=1, model="physics")
+    assert physics.params_["k"] == pytest.approx(summary["physics_params"]["1"]["k"])
+    with pytest.raises(ValueError, match="seed must be one of the run's seeds"):
+        load_fitted(out, seed=5)
+    with pytest.raises(ValueError, match="model must be one of"):
+        load_fitted(out, model="oracle")
+    with pytest.raises(FileNotFoundError, match="no finished run"):
+        load_fitted(tmp_path / "nowhere")

@@ -45,14 +45,16 @@ __all__ = [
 
 
 # -- cascaded tanks ----------------------------------------------------------------
-def tanks(x, u, *, xp, k1, k2, k3, k4, k5, k6, x1max, kof, y_offset, dt, n_sub):
-    """Two tanks with Torricelli outflow and the upper tank's overflow (discrete).
+def tanks(x, u, *, xp, k1, k2, k3, k4, k5, k6, x1max, kof, y_offset, zmax, dt, n_sub):
+    """Two tanks with Torricelli outflow, both overflowing (discrete).
 
     ``x1' = -k1 sqrt(x1) - k5 x1 + k4 u`` (upper tank, latent; it overflows at
     ``x1max`` and a share ``kof`` of the overflow reaches the lower tank) and
     ``z' = k2 sqrt(x1) + k5 x1 - k3 sqrt(z - y_offset) - k6 (z - y_offset)``,
     ``z`` the lower tank's level in sensor volts (its level plus the sensor's
-    offset ``y_offset``). Explicit Euler with ``n_sub`` sub-steps per sample of
+    offset ``y_offset``), which overflows at ``zmax``: the level saturates
+    there and the water above it is lost (a saturating state, not only a
+    clipped output). Explicit Euler with ``n_sub`` sub-steps per sample of
     ``dt`` seconds.
     """
     x1, z = x[:, 0], x[:, 1]
@@ -64,6 +66,7 @@ def tanks(x, u, *, xp, k1, k2, k3, k4, k5, k6, x1max, kof, y_offset, dt, n_sub):
         x1_next = x1 + h * (-k1 * s1 - k5 * x1 + k4 * u[:, 0])
         overflow = xp.maximum(x1_next - x1max, 0.0 * x1)
         z = z + h * (k2 * s1 + k5 * x1 - k3 * s2 - k6 * x2) + kof * overflow
+        z = xp.minimum(z, zmax + 0.0 * z)
         x1 = x1_next - overflow
     return xp.stack([x1, z], axis=1)
 
@@ -106,6 +109,7 @@ def tanks_physics(dt, *, max_nfev=100):
             "x1max": 6.0,
             "kof": 0.3,
             "y_offset": 0.5,
+            "zmax": 10.0,
             "dt": float(dt),
             "n_sub": 4.0,
         },
@@ -125,6 +129,7 @@ def tanks_physics(dt, *, max_nfev=100):
             "x1max": (1.0, 100.0),
             "kof": (0.0, 1.0),
             "y_offset": (-3.0, 3.0),
+            "zmax": (8.0, 12.0),
         },
         max_nfev=max_nfev,
         vectorized=True,

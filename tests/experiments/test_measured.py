@@ -88,7 +88,7 @@ def test_vectorized_needs_scalar_parameters():
         model.fit_simulation(u, y)
 
 
-def test_tanks_overflow_caps_the_upper_level():
+def test_tanks_overflow_caps_both_levels():
     p = {
         "k1": 0.05,
         "k2": 0.05,
@@ -99,6 +99,7 @@ def test_tanks_overflow_caps_the_upper_level():
         "x1max": 3.0,
         "kof": 0.5,
         "y_offset": 0.0,
+        "zmax": 9.5,
         "dt": 4.0,
         "n_sub": 4,
     }
@@ -106,8 +107,13 @@ def test_tanks_overflow_caps_the_upper_level():
     levels = []
     for _ in range(200):
         x = tanks(x, np.full((1, 1), 10.0), xp=np, **p)
-        levels.append(x[0, 0])
-    assert max(levels) <= 3.0 + 1e-12
+        levels.append(x[0])
+    levels = np.array(levels)
+    assert levels[:, 0].max() <= 3.0 + 1e-12
+    # The lower tank fills up to its brim and overflows there: water is lost,
+    # its level stays at zmax while the inflow lasts.
+    assert levels[:, 1].max() == pytest.approx(9.5) and levels[-1, 1] == 9.5
+    assert np.all(np.diff(levels[:, 1]) >= -1e-12)
     # The lower tank's sensor clips at 10 V.
     assert tanks_output(np.array([[1.0, 50.0]]), xp=np)[0, 0] == 10.0
     assert tanks_physics(4.0).n_init == 50

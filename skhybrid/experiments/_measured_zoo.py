@@ -263,6 +263,22 @@ def _dense(quick, seed):
     )
 
 
+#: Networks the dense ensemble correction averages.
+ENSEMBLE_SIZE = 3
+
+
+def _dense_ensemble(ctx):
+    """The mean of ``ENSEMBLE_SIZE`` dense networks of other seeds than the run's."""
+    from sklearn.ensemble import VotingRegressor
+
+    return VotingRegressor(
+        [
+            (f"seed-{k}", _dense(ctx.quick, 1000 * k + ctx.seed))
+            for k in range(1, ENSEMBLE_SIZE + 1)
+        ]
+    )
+
+
 def _arx_ridge(ctx):
     return Ridge(alpha=1e-6)
 
@@ -347,6 +363,12 @@ def _linear_arx_window(ctx, records):
     return {n: n}
 
 
+def _dense_correction_window(ctx, records):
+    # The ensemble reads the window the single dense correction chose.
+    n = records["physics + dense"]["selection"]["n"]
+    return {n: n}
+
+
 def _correction_windows(ctx, records):
     return {n: n for n in ((1, 10) if ctx.quick else (1, 10, 50))}
 
@@ -369,7 +391,8 @@ def zoo(system, quick=False):
     -------
     zoo : dict of str to ZooModel
         The physics, a linear ARX, a dense NARX, the physics with a linear and a
-        dense static correction, and, where the system has candidates, the
+        dense static correction and with the mean of three dense corrections
+        (the dense one's window), and, where the system has candidates, the
         state-space hybrid.
     """
     models = {
@@ -402,6 +425,16 @@ def zoo(system, quick=False):
             _correction_windows,
             requires=("physics",),
             choice="n",
+        ),
+        "physics + dense ensemble": ZooModel(
+            partial(_fit_correction, _dense_ensemble),
+            _dense_correction_window,
+            requires=("physics", "physics + dense"),
+            choice="n",
+            notes={
+                "window": "the physics + dense's",
+                "networks": f"{ENSEMBLE_SIZE} dense networks averaged",
+            },
         ),
     }
     if system.has_hybrids(quick):

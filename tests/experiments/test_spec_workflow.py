@@ -128,6 +128,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
         "dense NARX",
         "physics + linear",
         "physics + dense",
+        "physics + dense ensemble",
         "state-space hybrid",
     }
     assert summary["seeds"] == [0, 1, 2]

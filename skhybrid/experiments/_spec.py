@@ -160,7 +160,8 @@ class SystemSpec:
     module:object``) fits the default candidate family on it: the physics by
     simulation error (multiple shooting over segments), a linear ARX and a dense
     NARX as black-box baselines, the physics with a linear and a dense static
-    correction, and state-space hybrids over a small horizon grid. Every choice
+    correction and with the mean of three dense corrections, and state-space
+    hybrids over a small horizon grid. Every choice
     (segment length, windows, horizon, the model quoted) is made on the last
     25 % of each estimation record, the selection is sealed (written with its
     hash), and only then are the test records read and simulated.

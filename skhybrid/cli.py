@@ -19,8 +19,9 @@ Hybrid physics / neural / stochastic models of dynamical systems.
 alone, a linear state-space model, dense, recurrent and cyclic networks, and the
 physics+network hybrids), scores every model on interpolative and extrapolative
 test sets, and writes results.csv, results.json, the figures and a self-contained
-report.html to the output folder. `skhybrid run cascaded-tanks|emps|silverbox`
-does the same for a measured benchmark, scored by its official protocol beside
+report.html to the output folder. `skhybrid run cascaded-tanks` (or emps,
+silverbox, coupled-electric-drives, wiener-hammerstein, friction-damper) does
+the same for a measured benchmark, scored by its official protocol beside
 the published figures: its files come from --data DIR, or are downloaded once
 into the data home ($SKHYBRID_DATA, else ~/skhybrid_data) and checked.
 `skhybrid run --system module:object` runs your own machine's SystemSpec the

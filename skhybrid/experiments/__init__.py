@@ -2,7 +2,9 @@
 
 Systems, their model zoos, the runner, the run folder and the report. The paper's
 simulated systems and the measured benchmarks (``cascaded-tanks``, ``emps``,
-``silverbox``, whose files live in a folder the user names) run the same way.
+``silverbox``, ``coupled-electric-drives``, ``wiener-hammerstein``,
+``friction-damper``, whose files live in a folder the user names or are fetched
+once) run the same way.
 Run them from the shell with ``skhybrid run pendulum --quick`` or ``skhybrid run
 emps --data ../shared/data --quick`` (see ``skhybrid --help``), or from Python::
 

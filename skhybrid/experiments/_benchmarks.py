@@ -8,6 +8,8 @@ sealed. Where a spec departs from the default candidate family,
 :data:`BUILTIN_NOTES` says why (the report prints it).
 """
 
+from functools import partial
+
 from skhybrid.datasets import (
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
@@ -105,48 +107,76 @@ PUBLISHED = {
 }
 
 
-class CascadedTanks(MeasuredSystem):
+class _Benchmark(MeasuredSystem):
+    """A built-in benchmark: its files' fetcher and loader, and its spec's fields."""
+
+    #: ``fetch()`` and ``load(path)`` of :mod:`skhybrid.datasets`.
+    fetch = None
+    load_files = None
+
+    def files(self, data):
+        """The benchmark's data Bunch: fetched where ``data`` is None."""
+        if data is None:
+            return type(self).fetch()
+        return type(self).load_files(data)
+
+    def build_spec(self, data, d, records, tests, **fields):
+        """The spec with the benchmark's name, title, units, published figures, notes.
+
+        ``tests`` names the test splits (``{report name: split}``); they are read
+        from the files again when the sealed run calls for them.
+        """
+        return SystemSpec(
+            self.name,
+            records=records,
+            n_init=d.n_init,
+            dt=d.dt,
+            tests=lambda: {
+                name: _pair(self.files(data).splits[split])
+                for name, split in tests.items()
+            },
+            title=self.title,
+            unit=self.unit,
+            scale=self.scale,
+            published=PUBLISHED.get(self.name, {}),
+            notes=BUILTIN_NOTES[self.name],
+            **fields,
+        )
+
+
+class CascadedTanks(_Benchmark):
     name = "cascaded-tanks"
     title = "Cascaded tanks with overflow (measured)"
     unit = "V"
     hybrids = False
+    fetch, load_files = fetch_cascaded_tanks, load_cascaded_tanks
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_cascaded_tanks() if data is None else load_cascaded_tanks(data)
-
-        d = load()
-        return SystemSpec(
-            self.name,
-            records=[(d.splits["train"].u, d.splits["train"].y)],
+        d = self.files(data)
+        return self.build_spec(
+            data,
+            d,
+            [_pair(d.splits["train"])],
+            {"test": "test"},
             # Level units are volts of the lower sensor; the upper tank is latent.
             physics=tanks_physics(d.dt, max_nfev=100),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {"test": _pair(load().splits["test"])},
-            title=self.title,
-            unit=self.unit,
-            published=PUBLISHED[self.name],
             segments=(None,),
             hybrids=None,
-            notes=BUILTIN_NOTES[self.name],
             # The original protocol too: all 1024 samples, from the state of the
             # estimation record's start (the published grey-box figures' protocol).
             score_from_estimation_start=True,
         )
 
 
-class EMPS(MeasuredSystem):
+class EMPS(_Benchmark):
     name = "emps"
     title = "EMPS electro-mechanical positioning axis (measured, closed loop)"
     unit = "mm"
     scale = 1e3
+    fetch, load_files = fetch_emps, load_emps
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_emps() if data is None else load_emps(data)
-
-        d = load()
+        d = self.files(data)
         # The network corrects the velocity's update from the velocity and the
         # input (the position drifts over the record, so it is not read).
         common = {
@@ -158,35 +188,27 @@ class EMPS(MeasuredSystem):
             f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
             for T, h, stride in ((100, (32, 32), 25), (400, (32, 32), 50))
         }
-        return SystemSpec(
-            self.name,
-            records=[(d.splits["train"].u, d.splits["train"].y)],
+        return self.build_spec(
+            data,
+            d,
+            [_pair(d.splits["train"])],
+            {"test": "test"},
             # The reference model of the description: symmetric friction, offset.
             physics=emps_physics(d.dt, max_nfev=60),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {"test": _pair(load().splits["test"])},
-            title=self.title,
-            unit=self.unit,
-            scale=self.scale,
-            published=PUBLISHED[self.name],
             segments=(2000, 4000, 8000),
             hybrids=hybrids,
-            notes=BUILTIN_NOTES[self.name],
         )
 
 
-class Silverbox(MeasuredSystem):
+class Silverbox(_Benchmark):
     name = "silverbox"
     title = "Silverbox electronic Duffing oscillator (measured)"
     unit = "mV"
     scale = 1e3
+    fetch, load_files = fetch_silverbox, load_silverbox
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            return fetch_silverbox() if data is None else load_silverbox(data)
-
-        d = load()
+        d = self.files(data)
         train = d.splits["train"]
         n = 16384 if quick else len(train.u)
         names = ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation")
@@ -195,129 +217,98 @@ class Silverbox(MeasuredSystem):
             f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common)
             for T, h, stride in ((50, (32, 32), 50), (200, (32, 32), 100))
         }
-
-        def physics(U, Y, dt):
-            # The start: a one-step regression on finite differences.
-            return silverbox_physics(dt, U[0][:, :1], Y[0], max_nfev=30)
-
-        return SystemSpec(
-            self.name,
-            records=[(train.u[:n], train.y[:n])],
-            physics=physics,
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {k: _pair(load().splits[k]) for k in names},
-            title=self.title,
-            unit=self.unit,
-            scale=self.scale,
-            published=PUBLISHED[self.name],
+        return self.build_spec(
+            data,
+            d,
+            [(train.u[:n], train.y[:n])],
+            {name: name for name in names},
+            physics=_silverbox_start,
             physics_inputs=with_next_input,
             segments=(512,),
             hybrids=hybrids,
             hybrid_records=6,
-            notes=BUILTIN_NOTES[self.name],
         )
 
 
-class CoupledElectricDrives(MeasuredSystem):
+def _silverbox_start(U, Y, dt):
+    """The Silverbox's physics from a one-step regression on finite differences."""
+    return silverbox_physics(dt, U[0][:, :1], Y[0], max_nfev=30)
+
+
+class CoupledElectricDrives(_Benchmark):
     name = "coupled-electric-drives"
     title = "Coupled electric drives, DATAUNIF (measured)"
     unit = "ticks/s"
+    fetch, load_files = fetch_coupled_electric_drives, load_coupled_electric_drives
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            if data is None:
-                return fetch_coupled_electric_drives()
-            return load_coupled_electric_drives(data)
-
-        d = load()
-        dt = d.dt
-
-        def physics(U, Y, dt=dt):
-            # No start is known from the data sheet: short fits from a few
-            # resonance frequencies, the best on the records it is fitted on.
-            return best_start(lambda w: ced_physics(dt, w=w), CED_STARTS, U, Y)
-
-        return SystemSpec(
-            self.name,
-            records=[_pair(d.splits["train_1"]), _pair(d.splits["train_2"])],
-            physics=physics,
-            n_init=d.n_init,
-            dt=dt,
-            tests=lambda: {k: _pair(load().splits[k]) for k in ("test_1", "test_2")},
-            title=self.title,
-            unit=self.unit,
-            published=PUBLISHED[self.name],
-            notes=BUILTIN_NOTES[self.name],
+        d = self.files(data)
+        return self.build_spec(
+            data,
+            d,
+            [_pair(d.splits["train_1"]), _pair(d.splits["train_2"])],
+            {"test_1": "test_1", "test_2": "test_2"},
+            physics=_ced_start,
         )
 
 
-class WienerHammerstein(MeasuredSystem):
+def _ced_start(U, Y, dt):
+    """The drives' physics from the best of short fits at a few resonances.
+
+    No start is known from the data sheet: each start is fitted briefly on the
+    records it is then fitted on, never on a validation or test record.
+    """
+    return best_start(partial(_ced_at, dt), CED_STARTS, U, Y)
+
+
+def _ced_at(dt, w):
+    return ced_physics(dt, w=w)
+
+
+class WienerHammerstein(_Benchmark):
     name = "wiener-hammerstein"
     title = "Wiener-Hammerstein electronic circuit, SYSID 2009 (measured)"
     unit = "mV"
     scale = 1e3
     hybrids = False
+    fetch, load_files = fetch_wiener_hammerstein, load_wiener_hammerstein
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            return (
-                fetch_wiener_hammerstein()
-                if data is None
-                else load_wiener_hammerstein(data)
-            )
-
-        d = load()
+        d = self.files(data)
         train = d.splits["train"]
         n = 20000 if quick else len(train.u)
-        return SystemSpec(
-            self.name,
-            records=[(train.u[:n], train.y[:n])],
+        return self.build_spec(
+            data,
+            d,
+            [(train.u[:n], train.y[:n])],
+            {"test": "test"},
             # The data sheet: two linear filters around a static nonlinearity,
             # nominal order 6; the physics is the best linear approximation.
             physics=_LinearOutputError(order=6, max_nfev=50),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {"test": _pair(load().splits["test"])},
-            title=self.title,
-            unit=self.unit,
-            scale=self.scale,
-            published=PUBLISHED[self.name],
             segments=(None,),
             hybrids=None,
-            notes=BUILTIN_NOTES[self.name],
         )
 
 
-class FrictionDamper(MeasuredSystem):
+class FrictionDamper(_Benchmark):
     name = "friction-damper"
     title = "Band friction damper with backlash, ARTS-Lab dataset 2 (measured)"
     unit = "kip"
+    fetch, load_files = fetch_friction_damper, load_friction_damper
 
     def make_spec(self, data=None, quick=False):
-        def load():
-            return (
-                fetch_friction_damper() if data is None else load_friction_damper(data)
-            )
-
-        d = load()
+        d = self.files(data)
         train = [k for k in d.splits if k.startswith("train_")]
-        tests = [k for k in d.splits if k.startswith("test_")]
-        records = [_pair(d.splits[k]) for k in train]
         if quick:  # the three 7169-sample tests at 1 Hz
-            records = [_pair(d.splits[k]) for k in train if k.startswith("train_1Hz")]
-        return SystemSpec(
-            self.name,
-            records=records,
+            train = [k for k in train if k.startswith("train_1Hz")]
+        tests = {k[len("test_") :]: k for k in d.splits if k.startswith("test_")}
+        return self.build_spec(
+            data,
+            d,
+            [_pair(d.splits[k]) for k in train],
+            tests,
             # The data sheet: dry friction of a band behind a backlash (Dahl).
             physics=friction_damper_physics(max_nfev=40),
-            n_init=d.n_init,
-            dt=d.dt,
-            tests=lambda: {k[len("test_") :]: _pair(load().splits[k]) for k in tests},
-            inputs=None,
-            title=self.title,
-            unit=self.unit,
-            notes=BUILTIN_NOTES[self.name],
         )
 
 

@@ -8,8 +8,6 @@ sealed. Where a spec departs from the default candidate family,
 :data:`BUILTIN_NOTES` says why (the report prints it).
 """
 
-from functools import partial
-
 from skhybrid.datasets import (
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
@@ -28,7 +26,6 @@ from skhybrid.experiments._measured import MeasuredSystem
 from skhybrid.experiments._measured_physics import (
     CED_STARTS,
     _LinearOutputError,
-    best_start,
     ced_physics,
     emps_physics,
     friction_damper_physics,
@@ -248,21 +245,11 @@ class CoupledElectricDrives(_Benchmark):
             d,
             [_pair(d.splits["train_1"]), _pair(d.splits["train_2"])],
             {"test_1": "test_1", "test_2": "test_2"},
-            physics=_ced_start,
+            physics=ced_physics(d.dt),
+            # No start is known from the data sheet: the best of short fits
+            # from a few resonance frequencies.
+            physics_starts=[{"w": w} for w in CED_STARTS],
         )
-
-
-def _ced_start(U, Y, dt):
-    """The drives' physics from the best of short fits at a few resonances.
-
-    No start is known from the data sheet: each start is fitted briefly on the
-    records it is then fitted on, never on a validation or test record.
-    """
-    return best_start(partial(_ced_at, dt), CED_STARTS, U, Y)
-
-
-def _ced_at(dt, w):
-    return ced_physics(dt, w=w)
 
 
 class WienerHammerstein(_Benchmark):

@@ -216,6 +216,17 @@ class SystemSpec:
         drawn within pieces).
     notes : str, default=""
         Why the spec departs from the default family, shown in the report.
+    physics_starts : list of dict or None, default=None
+        Several starts of the physics' parameters, each a dict of values that
+        override its own (``[{"w": 5.0}, {"w": 30.0}]``): a simulation-error fit
+        from a poor start can stop in a local minimum, so each start is fitted
+        briefly (``starts_nfev`` evaluations) on the records the physics is
+        then fitted on, and the physics starts from the best one's parameters
+        (never chosen on a validation or test record). Needs a physics with
+        ``params`` and ``fit_simulation`` (a
+        :class:`~skhybrid.domain.StateSpaceModel`).
+    starts_nfev : int, default=15
+        Residual evaluations of each start's short fit.
     score_from_estimation_start : bool, default=False
         Also score every test record under a second protocol, ``<test>_original
         _protocol``: the free run starts from the initial state estimated on the
@@ -264,6 +275,8 @@ class SystemSpec:
     hybrids: object = "auto"
     hybrid_records: int = 4
     notes: str = ""
+    physics_starts: list = None
+    starts_nfev: int = 15
     score_from_estimation_start: bool = False
 
     def __post_init__(self):
@@ -289,6 +302,31 @@ class SystemSpec:
                 "physics must be an estimator with fit and simulate (a "
                 "StateSpaceModel, say) or a callable physics(U, Y, dt) "
                 f"returning one; got {type(physics).__name__}."
+            )
+        if self.physics_starts is not None:
+            starts = self.physics_starts
+            if (
+                not isinstance(starts, (list, tuple))
+                or not starts
+                or not all(isinstance(st, dict) for st in starts)
+            ):
+                raise TypeError(
+                    "physics_starts must be a non-empty list of dicts of parameter "
+                    f"values, or None; got physics_starts={starts!r}."
+                )
+            if not is_factory and not hasattr(physics, "fit_simulation"):
+                raise TypeError(
+                    "physics_starts needs a physics fitted by simulation error (a "
+                    f"StateSpaceModel); got {type(physics).__name__}."
+                )
+        if (
+            isinstance(self.starts_nfev, bool)
+            or not isinstance(self.starts_nfev, numbers.Integral)
+            or self.starts_nfev < 1
+        ):
+            raise ValueError(
+                "starts_nfev must be an int >= 1; got "
+                f"starts_nfev={self.starts_nfev!r}."
             )
         if self.segments != "auto":
             for s in self.segments:
@@ -421,8 +459,19 @@ class SystemSpec:
             Unfitted.
         """
         if callable(self.physics) and not hasattr(self.physics, "get_params"):
-            return self.physics(U, Y, dt)
-        return clone(self.physics)
+            base = self.physics(U, Y, dt)
+        else:
+            base = clone(self.physics)
+        if not self.physics_starts:
+            return base
+        from skhybrid.experiments._measured_physics import best_start
+
+        def make(start):
+            return clone(base).set_params(params={**base.params, **start})
+
+        return best_start(
+            make, list(self.physics_starts), U, Y, max_nfev=self.starts_nfev
+        )
 
     def segment_candidates(self, fit_lengths):
         """Segment lengths of the physics' fit to try on fitting parts of these lengths.

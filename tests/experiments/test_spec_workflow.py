@@ -356,3 +356,27 @@ def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
         load_fitted(out, model="oracle")
     with pytest.raises(FileNotFoundError, match="no finished run"):
         load_fitted(tmp_path / "nowhere")
+
+
+def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
+    U, Y = [machine.record(600, 0)[0]], [machine.record(600, 0)[1]]
+    starts = [{"k": 0.05, "c": 3.0}, {"k": 1.5, "c": 0.4}]
+    spec = machine.make_spec(physics_starts=starts, starts_nfev=3)
+    physics = spec.make_physics(U, Y, machine.DT)
+    # Each start fitted with 3 evaluations: the far one ends worse; the physics
+    # returned is unfitted, its parameters the best short fit's.
+    short = [
+        machine.physics()
+        .set_params(params={**machine.physics().params, **st}, max_nfev=3)
+        .fit_simulation(U, Y)
+        for st in starts
+    ]
+    best = int(np.argmin([m.rmse_ for m in short]))
+    assert best == 1
+    assert physics.params == pytest.approx(short[best].params_)
+    assert not hasattr(physics, "params_")
+
+    with pytest.raises(TypeError, match="physics_starts must be a non-empty list"):
+        machine.make_spec(physics_starts={"k": 1.0})
+    with pytest.raises(ValueError, match="starts_nfev must be an int >= 1"):
+        machine.make_spec(physics_starts=starts, starts_nfev=0)

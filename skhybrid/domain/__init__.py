@@ -6,6 +6,11 @@ Every model declares named parameters with initial values, optional bounds and a
 """
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.domain._friction import (
+    asymmetric_friction,
+    coulomb_viscous_friction,
+    stribeck_friction,
+)
 from skhybrid.domain._identifiability import check_identifiability
 from skhybrid.domain._linear import LinearStateSpaceModel
 from skhybrid.domain._parametric import ParametricModel
@@ -18,6 +23,9 @@ __all__ = [
     "ParametricModel",
     "PendulumModel",
     "StateSpaceModel",
+    "asymmetric_friction",
     "check_identifiability",
+    "coulomb_viscous_friction",
     "pendulum_step",
+    "stribeck_friction",
 ]

@@ -29,7 +29,7 @@ from scipy.signal import lfilter, lfiltic
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.domain import StateSpaceModel
+from skhybrid.domain import StateSpaceModel, asymmetric_friction
 
 __all__ = [
     "duffing_foh",
@@ -137,21 +137,26 @@ def tanks_physics(dt, *, max_nfev=100):
 
 
 # -- EMPS ----------------------------------------------------------------------------
-def emps_axis(x, u, *, xp, M, Fv, Fc, offset, gtau, dt, eps):
-    """Rigid axis ``M q'' = gtau u - Fv q' - Fc sign(q') - offset`` (discrete).
+def emps_axis(x, u, *, xp, M, Fv_pos, Fv_neg, Fc_pos, Fc_neg, gtau, dt, eps):
+    """Rigid axis ``M q'' = gtau u - F(q')`` with direction-dependent friction.
 
-    Semi-implicit Euler over one sample of ``dt`` seconds: the velocity first,
-    then the position with the new velocity; the sign is smoothed as
-    ``tanh(q' / eps)``.
+    ``F`` is :func:`~skhybrid.domain.asymmetric_friction`: Coulomb and viscous
+    friction with other coefficients in each direction of motion (the
+    description's asymmetric model). Semi-implicit Euler over one sample of
+    ``dt`` seconds: the velocity first, then the position with the new
+    velocity; the sign is smoothed as ``tanh(q' / eps)``.
     """
     q, v = x[:, 0], x[:, 1]
-    acc = (gtau * u[:, 0] - Fv * v - Fc * xp.tanh(v / eps) - offset) / M
+    friction = asymmetric_friction(
+        v, xp=xp, Fc_pos=Fc_pos, Fc_neg=Fc_neg, Fv_pos=Fv_pos, Fv_neg=Fv_neg, eps=eps
+    )
+    acc = (gtau * u[:, 0] - friction) / M
     v_next = v + dt * acc
     return xp.stack([q + dt * v_next, v_next], axis=1)
 
 
 def emps_physics(dt, *, n_init=20, max_nfev=60):
-    """The EMPS reference model as a :class:`StateSpaceModel` (velocity latent).
+    """The EMPS model as a :class:`StateSpaceModel` (velocity latent).
 
     Parameters
     ----------
@@ -172,9 +177,10 @@ def emps_physics(dt, *, n_init=20, max_nfev=60):
         emps_axis,
         {
             "M": 95.0,
-            "Fv": 200.0,
-            "Fc": 20.0,
-            "offset": -3.0,
+            "Fv_pos": 200.0,
+            "Fv_neg": 200.0,
+            "Fc_pos": 20.0,
+            "Fc_neg": 20.0,
             "gtau": 35.15,
             "dt": float(dt),
             "eps": 1e-4,
@@ -184,7 +190,13 @@ def emps_physics(dt, *, n_init=20, max_nfev=60):
         time="discrete",
         n_init=n_init,
         fixed=("gtau", "dt", "eps"),
-        bounds={"M": (1.0, 1e3), "Fv": (0.0, 1e4), "Fc": (0.0, 1e3)},
+        bounds={
+            "M": (1.0, 1e3),
+            "Fv_pos": (0.0, 1e4),
+            "Fv_neg": (0.0, 1e4),
+            "Fc_pos": (0.0, 1e3),
+            "Fc_neg": (0.0, 1e3),
+        },
         max_nfev=max_nfev,
         vectorized=True,
     )

@@ -22,7 +22,7 @@ from skhybrid.experiments._measured_physics import (
 from skhybrid.experiments._measured_zoo import _records, _rmse
 from skhybrid.hybrid._correction import _windows
 
-TRUTH = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
+TRUTH = {"M": 95.0, "Fv_pos": 167.0, "Fv_neg": 240.0, "Fc_pos": 20.0, "Fc_neg": 21.0}
 
 
 def _emps_data(n=3000, seed=0):
@@ -41,13 +41,19 @@ def _emps_data(n=3000, seed=0):
 def _emps_start(**kwargs):
     # About 20 % off the truth.
     model = emps_physics(1e-3, **kwargs)
-    start = {"M": 80.0, "Fv": 170.0, "Fc": 17.0, "offset": -2.0}
+    start = {
+        "M": 80.0,
+        "Fv_pos": 140.0,
+        "Fv_neg": 200.0,
+        "Fc_pos": 17.0,
+        "Fc_neg": 17.0,
+    }
     return model.set_params(params={**model.params, **start})
 
 
 @pytest.mark.parametrize("vectorized", [False, True])
 def test_simulation_error_fit_recovers_the_emps_parameters(vectorized):
-    """Simulated axis: the output-error fit finds M, Fv, Fc and the offset."""
+    """Simulated axis: the output-error fit finds M and each direction's friction."""
     u, y = _emps_data()
     model = _emps_start(max_nfev=100).set_params(vectorized=vectorized)
     model.fit_simulation([u[:1500], u[1500:]], [y[:1500], y[1500:]])
@@ -159,7 +165,14 @@ def test_diverging_physics_raises():
     u, y = _emps_data(n=200)
     model = _emps_start(max_nfev=1).fit_simulation(u, y)
     # Negative damping: the velocity grows every step and overflows later on.
-    model.params_ = {**model.params_, "M": 1.0, "Fv": -2000.0, "Fc": 0.0}
+    model.params_ = {
+        **model.params_,
+        "M": 1.0,
+        "Fv_pos": -2000.0,
+        "Fv_neg": -2000.0,
+        "Fc_pos": 0.0,
+        "Fc_neg": 0.0,
+    }
     with pytest.raises(SimulationDivergedError, match="step"):
         model.simulate(np.ones((5000, 1)), np.zeros((20, 1)) + 1e-3)
 

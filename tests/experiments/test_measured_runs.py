@@ -38,7 +38,13 @@ def _axis_records(n=1600, seed=0):
     u = np.sin(2 * np.pi * 1.5 * t) + 0.5 * np.sin(2 * np.pi * 15.1 * t + 1.0)
     u = u[:, None] + 0.1 * rng.standard_normal((2 * n, 1))
     model = emps_physics(1e-3)
-    truth = {"M": 90.0, "Fv": 180.0, "Fc": 22.0, "offset": -3.3}
+    truth = {
+        "M": 90.0,
+        "Fv_pos": 160.0,
+        "Fv_neg": 210.0,
+        "Fc_pos": 22.0,
+        "Fc_neg": 23.0,
+    }
     model.set_params(params={**model.params, **truth}, fixed=tuple(model.params))
     y = model.fit_simulation(u, np.zeros((2 * n, 1))).simulate_from_state(u, [0.0, 0.0])
     y = y + 1e-5 * rng.standard_normal(y.shape)
@@ -336,7 +342,7 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     assert selection["physics"]["segment"] is None
     assert selection["dense NARX"]["n"] == selection["linear ARX"]["n"]
     assert summary["published"]["test"]["state of the art (dynoNet)"]["rmse"] == 2.64
-    assert set(summary["physics_params"]["0"]) >= {"M", "Fv", "Fc", "offset"}
+    assert set(summary["physics_params"]["0"]) >= {"M", "Fv_pos", "Fc_neg"}
     assert (out / "emps.png").stat().st_size > 10_000
     page = (out / "report.html").read_text()
     assert "Champneys" in page and "src='data:image/png;base64," in page

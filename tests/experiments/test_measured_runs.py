@@ -456,18 +456,25 @@ def test_a_measured_run_without_data_fetches_and_says_where_files_go(
 def test_cascaded_tanks_quick_run_on_the_real_files(shared_data_dir, tmp_path):
     out = tmp_path / "tanks"
     argv = ["run", "cascaded-tanks", "--quick", "--data", str(shared_data_dir)]
+    argv += ["--seeds", "0"]
     assert main([*argv, "--out", str(out), "--no-progress"]) == 0
     summary = json.loads((out / "results.json").read_text())["systems"][
         "cascaded-tanks"
     ]
     assert summary["n_init"] == 50 and summary["unit"] == "V"
-    assert set(summary["test_rmse"]["test"]) == {
+    models = {
         "physics",
         "linear ARX",
         "dense NARX",
         "physics + linear",
         "physics + dense",
+        "physics + dense ensemble",
     }
+    assert set(summary["test_rmse"]["test"]) == models
+    # The original protocol: defined for the physics and its corrections only.
+    original = summary["test_rmse"]["test_original_protocol"]
+    assert original["physics"]["mean"] is not None
+    assert original["linear ARX"]["mean"] is None
     assert (out / "cascaded-tanks.png").stat().st_size > 10_000
     assert main([*argv, "--out", str(out)]) == 2  # finished: kept
 

@@ -533,14 +533,20 @@ class _Plan:
         elif self.measured:
             self.system = _system(args.system)
         if self.measured:
-            from skhybrid.experiments._measured import DEFAULT_SEEDS, measured_identity
+            from skhybrid.experiments._measured import (
+                DEFAULT_SEEDS,
+                check_seeds,
+                measured_identity,
+            )
 
             if args.seeds is not None:
-                self.seeds = list(args.seeds)
+                seeds = args.seeds
             else:
-                self.seeds = list(DEFAULT_SEEDS) if args.seed is None else [args.seed]
-            if len(set(self.seeds)) != len(self.seeds):
-                raise _SpecError(f"--seeds must differ; got {self.seeds}")
+                seeds = DEFAULT_SEEDS if args.seed is None else [args.seed]
+            try:
+                self.seeds = check_seeds(seeds)
+            except ValueError as exc:
+                raise _SpecError(f"--seeds: {exc}") from None
             self.names = [self.system.name]
             self.identity = measured_identity(self.system, args.quick, self.seeds)
             zoo = self.system.model_zoo(self.system.default_settings(args.quick, 0))

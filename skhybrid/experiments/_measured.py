@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from skhybrid.experiments._measured_zoo import (
-    VALIDATION_FRACTION,
     MeasuredContext,
     _rmse,
+    _tail_split,
     fit_model,
     zoo,
 )
@@ -40,6 +40,7 @@ __all__ = [
     "MeasuredResult",
     "MeasuredSettings",
     "MeasuredSystem",
+    "check_seeds",
     "load_fitted",
     "measured_identity",
     "run_measured",
@@ -224,8 +225,7 @@ class MeasuredSystem:
 
     def segment_candidates(self, ctx):
         """The physics' segment lengths to try on the fitting parts of ``ctx``."""
-        lengths = [int(len(u) * (1 - VALIDATION_FRACTION)) for u in ctx.U]
-        segments = self.spec.segment_candidates(lengths)
+        segments = self.spec.segment_candidates(_fit_lengths(ctx))
         return segments[:1] if ctx.quick else segments
 
     def has_hybrids(self, quick=False):
@@ -234,8 +234,7 @@ class MeasuredSystem:
 
     def hybrid_candidates(self, ctx):
         """The state-space hybrids to try, by label (quick: the first, shortened)."""
-        lengths = [int(len(u) * (1 - VALIDATION_FRACTION)) for u in ctx.U]
-        candidates = self.spec.hybrid_candidates(lengths)
+        candidates = self.spec.hybrid_candidates(_fit_lengths(ctx))
         if ctx.quick and candidates:
             label, settings = next(iter(candidates.items()))
             quick = dict(settings, max_epochs=min(settings.get("max_epochs", 6), 6))
@@ -346,6 +345,12 @@ class MeasuredSystem:
             result.settings.seed,
         )
         return delayed(fit_model)(name, model, ctx, deps, sink)
+
+
+def _fit_lengths(ctx):
+    """Lengths of the records' fitting parts (before their validation tails)."""
+    (U_fit, _), _ = _tail_split(ctx.U, ctx.Y)
+    return [len(u) for u in U_fit]
 
 
 class MeasuredResult:
@@ -683,7 +688,24 @@ read.</p>{notes}
 DEFAULT_SEEDS = (0, 1, 2)
 
 
-def _check_seeds(seeds):
+def check_seeds(seeds):
+    """The seeds of a measured run, checked: distinct ints >= 0.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Each seed is a full selection.
+
+    Returns
+    -------
+    seeds : list of int
+        The seeds.
+
+    Raises
+    ------
+    ValueError
+        An empty sequence, a seed that is not an int >= 0, or a repeated seed.
+    """
     seeds = list(seeds)
     if not seeds or any(
         isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0
@@ -832,7 +854,7 @@ def run_system(
     >>> results["chosen_test_rmse"]["test"]["mean"]  # doctest: +SKIP
     """
     system = MeasuredSystem.from_spec(spec)
-    seeds = _check_seeds(seeds)
+    seeds = check_seeds(seeds)
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
         f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"
@@ -893,7 +915,7 @@ def run_measured(
         )
     import shlex
 
-    seeds = _check_seeds(seeds)
+    seeds = check_seeds(seeds)
     words = ["run", name] + (["--data", str(data)] if data is not None else [])
     words += ["--out", str(out)] + ["--quick"] * bool(quick)
     words += ["--seeds", *map(str, seeds)]

@@ -590,48 +590,6 @@ def ced_physics(dt, *, w=15.0, max_nfev=60):
     )
 
 
-def best_start(make, starts, U, Y, *, max_nfev=15):
-    """The model of the start whose short simulation-error fit is best.
-
-    Several starts, each fitted briefly on the records by the free-run error;
-    the returned model starts from the best one's parameters (chosen on the
-    records it is fitted on, never on a validation or test record).
-
-    Parameters
-    ----------
-    make : callable
-        ``make(start)`` returns an unfitted :class:`StateSpaceModel`.
-    starts : sequence
-        The starts.
-    U, Y : list of ndarray
-        The records.
-    max_nfev : int, default=15
-        Residual evaluations of each short fit.
-
-    Returns
-    -------
-    model : StateSpaceModel
-        Unfitted, its ``params`` the best short fit's.
-    """
-    import warnings
-
-    best, best_rmse = None, np.inf
-    for start in starts:
-        model = make(start).set_params(max_nfev=max_nfev)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                model.fit_simulation(U, Y)
-            except (ValueError, FloatingPointError, ArithmeticError):
-                continue
-        if np.isfinite(model.rmse_) and model.rmse_ < best_rmse:
-            best, best_rmse = model, model.rmse_
-    chosen = make(starts[0])
-    if best is not None:
-        chosen.set_params(params=dict(best.params_))
-    return chosen
-
-
 # -- friction damper with backlash --------------------------------------------------
 def band_friction(x, u, *, xp, gap, sigma, Fc, **params):
     """A band brake's dry friction (Dahl) behind a backlash (discrete time).

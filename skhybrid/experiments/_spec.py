@@ -9,12 +9,13 @@ records.
 """
 
 import numbers
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 from sklearn.base import clone
 
-__all__ = ["SystemSpec", "as_records", "records_digest"]
+__all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
 
 #: The default candidate family's initial horizon of the state-space hybrid
 #: (samples); the grid is this and four times it, kept below the records' length.
@@ -150,6 +151,46 @@ def records_digest(U, Y):
         h.update(str(a.shape).encode())
         h.update(a.tobytes())
     return h.hexdigest()
+
+
+def best_start(make, starts, U, Y, *, max_nfev=15):
+    """The model of the start whose short simulation-error fit is best.
+
+    Several starts, each fitted briefly on the records by the free-run error;
+    the returned model starts from the best one's parameters (chosen on the
+    records it is fitted on, never on a validation or test record).
+
+    Parameters
+    ----------
+    make : callable
+        ``make(start)`` returns an unfitted :class:`StateSpaceModel`.
+    starts : sequence
+        The starts.
+    U, Y : list of ndarray
+        The records.
+    max_nfev : int, default=15
+        Residual evaluations of each short fit.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        Unfitted, its ``params`` the best short fit's.
+    """
+    best, best_rmse = None, np.inf
+    for start in starts:
+        model = make(start).set_params(max_nfev=max_nfev)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                model.fit_simulation(U, Y)
+            except (ValueError, FloatingPointError, ArithmeticError):
+                continue
+        if np.isfinite(model.rmse_) and model.rmse_ < best_rmse:
+            best, best_rmse = model, model.rmse_
+    chosen = make(starts[0])
+    if best is not None:
+        chosen.set_params(params=dict(best.params_))
+    return chosen
 
 
 @dataclass
@@ -464,7 +505,6 @@ class SystemSpec:
             base = clone(self.physics)
         if not self.physics_starts:
             return base
-        from skhybrid.experiments._measured_physics import best_start
 
         def make(start):
             return clone(base).set_params(params={**base.params, **start})

@@ -9,11 +9,11 @@ from scipy.signal import lfilter
 from skhybrid.experiments._measured_physics import (
     _LinearOutputError,
     band_friction,
-    best_start,
     ced,
     ced_physics,
     friction_damper_physics,
 )
+from skhybrid.experiments._spec import best_start
 
 
 def _oe_record(n, seed, noise=0.0):

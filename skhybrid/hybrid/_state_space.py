@@ -137,11 +137,11 @@ class StateSpaceHybridRegressor(
     n_steps : int, default=1
         Time steps per row of ``X`` in :meth:`fit` and :meth:`predict` (the init
         window there).
-    hidden_layer_sizes : tuple of int, default=(32, 32)
+    hidden_layer_sizes : tuple of int, default=(64, 64)
         Hidden layers (tanh) of the state-correction network.
     encoder_hidden_layer_sizes : tuple of int, default=(32,)
         Hidden layers (tanh) of the encoder.
-    correction_scale : float, default=0.01
+    correction_scale : float, default=0.1
         Factor ``c`` of the correction network's output, in units of each
         state's typical change per sample.
     correction_form : {"step", "rhs"}, default="step"
@@ -185,16 +185,22 @@ class StateSpaceHybridRegressor(
         its end, so that the model kept is the one that simulates longest
         without drifting (the tails may be far shorter than the free runs the
         model is meant for). Ignored by :meth:`fit`.
-    stride : int, default=1
+    stride : int or "auto", default="auto"
         Samples between the starts of consecutive training sub-sequences (1:
         every sub-sequence; larger values train faster on long records).
+        ``"auto"``: ``max(1, horizon // 4)``, so that every sample lies in about
+        four sub-sequences.
     physics_initial_state : bool, default=True
-        Whether the encoder corrects the physics' own estimate of the state
-        (the least-squares fit of :meth:`StateSpaceModel.estimate_initial_state`
-        over the window at the starting parameters, run to the window's last
-        sample); the encoder's output layer starts at zero, so training starts
-        from the physics model. ``False``: the encoder alone (SUBNET), first
-        fitted to those estimates for ``encoder_epochs`` epochs.
+        Whether the encoder corrects the physics' own estimate of the latent
+        states (the least-squares fit of
+        :meth:`StateSpaceModel.estimate_initial_state` over the window at the
+        starting parameters, run to the window's last sample); the encoder's
+        output layer starts at zero, so training starts from the physics model.
+        ``False``: the encoder alone (SUBNET), first fitted to those estimates
+        for ``encoder_epochs`` epochs. Either way the observed states start
+        from their last measured values (the physics' estimate of them is biased
+        wherever the physics is wrong, and the encoder would first have to learn
+        to undo that bias).
     encoder_epochs : int, default=50
         Epochs of the encoder's pre-training with
         ``physics_initial_state=False`` (0 to skip).
@@ -294,7 +300,7 @@ class StateSpaceHybridRegressor(
         "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
         "validation_split": [StrOptions({"tail", "records"})],
-        "stride": [Interval(Integral, 1, None, closed="left")],
+        "stride": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
         **training_constraints(),
@@ -307,9 +313,9 @@ class StateSpaceHybridRegressor(
         n_init=20,
         horizon=20,
         n_steps=1,
-        hidden_layer_sizes=(32, 32),
+        hidden_layer_sizes=(64, 64),
         encoder_hidden_layer_sizes=(32,),
-        correction_scale=0.01,
+        correction_scale=0.1,
         correction_form="step",
         correction_states=None,
         corrected_states=None,
@@ -317,7 +323,7 @@ class StateSpaceHybridRegressor(
         warm_start_physics=True,
         train_physics=True,
         validation_split="tail",
-        stride=1,
+        stride="auto",
         physics_initial_state=True,
         encoder_epochs=50,
         objective="mse",
@@ -326,12 +332,12 @@ class StateSpaceHybridRegressor(
         ljung_box_segment_length=None,
         ljung_box_scaling="target",
         mse_pretraining=False,
-        lr=0.001,
-        max_epochs=100,
-        batch_size=32,
+        lr=0.01,
+        max_epochs=500,
+        batch_size=256,
         validation_fraction=0.2,
         target_scaling="per_output",
-        patience=10,
+        patience=30,
         lr_patience=10,
         lr_factor=0.5,
         callbacks=None,
@@ -618,7 +624,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
         k, T = self.n_init, self.horizon
         check_sequence_objective(self, T)
-        stride = self.stride
+        stride = max(1, T // 4) if self.stride == "auto" else self.stride
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
             if len(u) != len(y):
                 raise ValueError(
@@ -969,25 +975,22 @@ n_init, n_outputs) or list of 2-D arrays
 
 
 _SEQUENCE_DEFAULTS = {
-    "lr": (
-        1e-3,
-        (
-            "A tenth of the row networks' default: the gradient runs back through "
-            "``horizon`` steps of the dynamics and into the physical parameters."
-        ),
-    ),
     "max_epochs": (
-        100,
+        500,
         (
-            "An epoch passes over every sub-sequence, each simulated over "
-            "``horizon`` steps: far more work than an epoch over rows."
+            "Epochs over sub-sequences taken every ``stride`` samples are short; "
+            "early stopping (``patience``) ends most trainings well before. "
+            "Chosen with ``batch_size`` on the validation records of "
+            "``benchmarks/bench_state_space_defaults.py``."
         ),
     ),
     "batch_size": (
-        32,
-        "A sample is a sub-sequence of ``n_init + horizon`` samples, not a row.",
+        256,
+        (
+            "A sample is a sub-sequence of ``n_init + horizon`` samples, not a "
+            "row: fewer per batch than rows, more updates per epoch."
+        ),
     ),
-    "patience": (10, "Epochs are longer than over rows (see ``max_epochs``)."),
 }
 
 StateSpaceHybridRegressor.__doc__ = StateSpaceHybridRegressor.__doc__.replace(

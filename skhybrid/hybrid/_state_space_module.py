@@ -137,9 +137,11 @@ class StateSpaceHybridModule(nn.Module):
         base = self.state_mean.expand(n, -1) if prior is None else prior
         scale = self.state_scale
         if self.observed is not None:
-            if prior is None:
-                base = base.clone()
-                base[:, self.observed] = last
+            # The observed states start from their last measured values, also
+            # over the physics' estimate, which is biased where the physics is
+            # wrong; the encoder corrects them in units of a step's change.
+            base = base.clone()
+            base[:, self.observed] = last
             scale = scale.clone()
             scale[self.observed] = self.step_scale[self.observed]
         return base + scale * z

@@ -68,6 +68,36 @@ def test_improves_on_the_physics_it_starts_from():
     assert err_hybrid < err_physics
 
 
+def test_observed_states_start_from_the_last_measured_sample():
+    # A prior far off (the physics' estimate is biased wherever the physics is
+    # wrong) moves only the latent states; the observed ones start measured.
+    u, y = _records()
+    model = _model(lr=1e-12, max_epochs=1).fit_simulation(u, y)
+    import torch
+
+    Yw, Uw = torch.as_tensor(y[:, :3]), torch.as_tensor(u[:, :2])
+    prior = torch.full((len(y), 1), 50.0, dtype=torch.float64)
+    with torch.no_grad():
+        x = model.module_.encode(Yw, Uw, prior)
+    np.testing.assert_allclose(x.numpy(), y[:, 2], atol=1e-8)
+
+
+def test_auto_stride_takes_a_sub_sequence_every_quarter_horizon(monkeypatch):
+    u, y = _records(n=1, length=120)
+    seen = {}
+    original = StateSpaceHybridRegressor._fit_windows
+
+    def spy(self, physics, Ytr, *args):
+        seen[self.stride] = len(Ytr)
+        return original(self, physics, Ytr, *args)
+
+    monkeypatch.setattr(StateSpaceHybridRegressor, "_fit_windows", spy)
+    for stride in ("auto", 2, 1):
+        _model(horizon=8, stride=stride, max_epochs=1).fit_simulation(u, y)
+    # 96 training samples (the last fifth validates): 96 - 11 + 1 starts.
+    assert seen == {1: 86, 2: 43, "auto": 43}
+
+
 def test_same_seed_same_model():
     u, y = _records()
     a = _model().fit_simulation(u, y).simulate(u, y[:, :3])
@@ -137,6 +167,8 @@ def test_windows_fit_predict_and_simulate():
         ({"horizon": 500}, r"n_init \+ horizon = 3 \+ 500"),
         ({"correction_form": "state"}, r"correction_form"),
         ({"validation_split": "head"}, r"validation_split"),
+        ({"stride": "every"}, r"stride"),
+        ({"stride": 0}, r"stride"),
     ],
 )
 def test_bad_settings_raise_naming_parameter_and_value(kwargs, match):

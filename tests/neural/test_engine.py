@@ -65,9 +65,7 @@ def test_only_the_state_space_hybrid_has_other_defaults_with_reasons():
             if signature[name].default != spec.default:
                 differing.setdefault(cls.__name__, set()).add(name)
     # A batch of sub-sequences, epochs over simulated horizons: see its docstring.
-    assert differing == {
-        "StateSpaceHybridRegressor": {"lr", "max_epochs", "batch_size", "patience"}
-    }
+    assert differing == {"StateSpaceHybridRegressor": {"max_epochs", "batch_size"}}
 
 
 def test_gradient_steps_live_in_the_engine_only():

@@ -197,7 +197,6 @@ def run(
             lr=3e-3,
             max_epochs=max_epochs,
             batch_size=32,
-            stride=1,
             patience=10,
             validation_fraction=0.2,
             stride=max(5, T // 2),

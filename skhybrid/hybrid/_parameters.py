@@ -18,7 +18,7 @@ class BoundedParameters(nn.Module):
     - bounded on both sides: ``lower + (upper - lower) * sigmoid(z)``;
     - on one side: ``lower + a * softplus(z)`` (or ``upper - a * softplus(z)``),
       ``a`` the starting gap to the bound over ``log 2``, so ``z = 0`` is the
-      start;
+      start (however small the gap; a start on the bound moves ``1e-8`` off);
     - unbounded: ``theta0 + a * z`` with ``a = |theta0|`` (1 where it is 0), so
       Adam's steps are relative changes.
 
@@ -46,7 +46,7 @@ class BoundedParameters(nn.Module):
         span = np.where(both, upper - lower, 1.0)
         frac = np.clip((theta0 - lower) / span, 1e-6, 1 - 1e-6)
         gap = np.where(lo_only, theta0 - lower, np.where(hi_only, upper - theta0, 0))
-        a_side = np.maximum(gap, 1e-8) / math.log(2.0)
+        a_side = np.where(gap > 0, gap, 1e-8) / math.log(2.0)
         a_free = np.where(np.abs(theta0) > 0, np.abs(theta0), 1.0)
         z0 = np.where(both, np.log(frac / (1 - frac)), 0.0)
         self.z = nn.Parameter(

@@ -177,6 +177,12 @@ class StateSpaceHybridRegressor(
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
+    physics_lr : float or None, default=None
+        Learning rate of the free physical parameters in the joint training;
+        None trains them at ``lr``. The parameters start from a least-squares
+        fit, and each moves in steps of about ``physics_lr`` times its own
+        magnitude (Adam on a relative parametrisation), so a rate below the
+        networks' keeps the physics from wandering while the networks learn.
     validation_split : {"tail", "records"}, default="tail"
         What :meth:`fit_simulation` holds out for early stopping. ``"tail"``:
         the last ``validation_fraction`` of every record. ``"records"``: the
@@ -299,6 +305,7 @@ class StateSpaceHybridRegressor(
         "encoder_absolute": ["boolean"],
         "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
+        "physics_lr": [Interval(Real, 0, None, closed="left"), None],
         "validation_split": [StrOptions({"tail", "records"})],
         "stride": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
         "physics_initial_state": ["boolean"],
@@ -322,6 +329,7 @@ class StateSpaceHybridRegressor(
         encoder_absolute=True,
         warm_start_physics=True,
         train_physics=True,
+        physics_lr=None,
         validation_split="tail",
         stride="auto",
         physics_initial_state=True,
@@ -358,6 +366,7 @@ class StateSpaceHybridRegressor(
         self.encoder_absolute = encoder_absolute
         self.warm_start_physics = warm_start_physics
         self.train_physics = train_physics
+        self.physics_lr = physics_lr
         self.validation_split = validation_split
         self.stride = stride
         self.physics_initial_state = physics_initial_state
@@ -554,6 +563,11 @@ class StateSpaceHybridRegressor(
             sequences=True,
             start_as_candidate=True,
             seed=self._seeds[2],
+            optimizer_kwargs=(
+                None
+                if self.physics_lr is None
+                else {"param_groups": [("params.*", {"lr": self.physics_lr})]}
+            ),
         )
         record_training(self, net)
         module = net.module_.to("cpu").eval()

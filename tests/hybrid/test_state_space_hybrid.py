@@ -112,6 +112,40 @@ def test_train_physics_false_holds_the_warm_start():
     assert model.params_init_ == pytest.approx(model.physics_.params_)
 
 
+def test_physics_lr_sets_the_physical_parameters_own_rate():
+    u, y = _records()
+    settings = dict(max_epochs=10, lr=0.01, patience=None)
+    held = _model(physics_lr=0.0, **settings).fit_simulation(u, y)
+    assert held.params_ == pytest.approx(held.params_init_, abs=0, rel=0)
+    moved = {
+        rate: abs(
+            _model(physics_lr=rate, **settings).fit_simulation(u, y).params_["a"]
+            - held.params_init_["a"]
+        )
+        for rate in (1e-5, None)
+    }
+    # Adam moves ``a`` about ``rate * |a|`` per step: the networks' rate moves it
+    # far more than a hundredth of it.
+    assert 0 < moved[1e-5] < moved[None] / 10
+
+
+@pytest.mark.parametrize("physics_lr", [-1e-3, "fast"])
+def test_bad_physics_lr_is_named(physics_lr):
+    u, y = _records()
+    with pytest.raises((ValueError, TypeError), match="physics_lr"):
+        _model(physics_lr=physics_lr).fit_simulation(u, y)
+
+
+def test_bounded_parameters_start_at_their_values_however_near_a_bound():
+    from skhybrid.hybrid._parameters import BoundedParameters
+
+    theta0 = np.array([5e-11, 2.0, -3e-12, 0.3, 1.5])
+    lower = np.array([0.0, 0.0, -np.inf, 0.0, -np.inf])
+    upper = np.array([np.inf, np.inf, 0.0, 1.0, np.inf])
+    params = BoundedParameters(theta0, lower, upper)
+    np.testing.assert_allclose(params().detach().numpy(), theta0, rtol=1e-9)
+
+
 def test_latent_state_and_physics_free_encoder():
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, (3, 100, 1))

@@ -15,7 +15,8 @@ class BoundedParameters(nn.Module):
     The trained tensor is an unconstrained ``z``; calling the module returns the
     parameters ``theta``:
 
-    - bounded on both sides: ``lower + (upper - lower) * sigmoid(z)``;
+    - bounded on both sides: ``lower + (upper - lower) * sigmoid(z)`` (a start
+      nearer a bound than ``1e-12`` of the span starts that far from it);
     - on one side: ``lower + a * softplus(z)`` (or ``upper - a * softplus(z)``),
       ``a`` the starting gap to the bound over ``log 2``, so ``z = 0`` is the
       start (however small the gap; a start on the bound moves ``1e-8`` off);
@@ -44,7 +45,7 @@ class BoundedParameters(nn.Module):
         lower = np.where(lo_ok, lower, 0.0)
         upper = np.where(hi_ok, upper, 0.0)
         span = np.where(both, upper - lower, 1.0)
-        frac = np.clip((theta0 - lower) / span, 1e-6, 1 - 1e-6)
+        frac = np.clip((theta0 - lower) / span, 1e-12, 1 - 1e-12)
         gap = np.where(lo_only, theta0 - lower, np.where(hi_only, upper - theta0, 0))
         a_side = np.where(gap > 0, gap, 1e-8) / math.log(2.0)
         a_free = np.where(np.abs(theta0) > 0, np.abs(theta0), 1.0)

@@ -139,11 +139,14 @@ def test_bad_physics_lr_is_named(physics_lr):
 def test_bounded_parameters_start_at_their_values_however_near_a_bound():
     from skhybrid.hybrid._parameters import BoundedParameters
 
-    theta0 = np.array([5e-11, 2.0, -3e-12, 0.3, 1.5])
-    lower = np.array([0.0, 0.0, -np.inf, 0.0, -np.inf])
-    upper = np.array([np.inf, np.inf, 0.0, 1.0, np.inf])
+    theta0 = np.array([5e-11, 2.0, -3e-12, 0.3, 1.5, 5e-11, 0.5 - 5e-11])
+    lower = np.array([0.0, 0.0, -np.inf, 0.0, -np.inf, 0.0, 0.0])
+    upper = np.array([np.inf, np.inf, 0.0, 1.0, np.inf, 0.5, 0.5])
     params = BoundedParameters(theta0, lower, upper)
-    np.testing.assert_allclose(params().detach().numpy(), theta0, rtol=1e-9)
+    values = params().detach().numpy()
+    np.testing.assert_allclose(values, theta0, rtol=1e-9)
+    # The gap to the nearest bound, not only the value, starts where it was.
+    np.testing.assert_allclose(0.5 - values[-1], 5e-11, rtol=1e-3)
 
 
 def test_latent_state_and_physics_free_encoder():

@@ -177,6 +177,15 @@ class StateSpaceHybridRegressor(
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
+    n_augmented_states : int, default=0
+        Latent states beside the physics' own, that only the networks know
+        (SUBNET's black-box states, here added to a physics model): the encoder
+        estimates them from the window, the correction network reads them and
+        moves each by ``correction_scale`` times its output per sample, and
+        they reach the outputs only through the correction of the physics'
+        states. They start at zero, so the hybrid starts as its physics. They
+        carry what the physics lacks a state for: a disturbance the inputs do
+        not measure, a drift, an unmodelled mode.
     physics_lr : float or None, default=None
         Learning rate of the free physical parameters in the joint training;
         None trains them at ``lr``. The parameters start from a least-squares
@@ -305,6 +314,7 @@ class StateSpaceHybridRegressor(
         "encoder_absolute": ["boolean"],
         "warm_start_physics": ["boolean"],
         "train_physics": ["boolean"],
+        "n_augmented_states": [Interval(Integral, 0, None, closed="left")],
         "physics_lr": [Interval(Real, 0, None, closed="left"), None],
         "validation_split": [StrOptions({"tail", "records"})],
         "stride": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
@@ -329,6 +339,7 @@ class StateSpaceHybridRegressor(
         encoder_absolute=True,
         warm_start_physics=True,
         train_physics=True,
+        n_augmented_states=0,
         physics_lr=None,
         validation_split="tail",
         stride="auto",
@@ -366,6 +377,7 @@ class StateSpaceHybridRegressor(
         self.encoder_absolute = encoder_absolute
         self.warm_start_physics = warm_start_physics
         self.train_physics = train_physics
+        self.n_augmented_states = n_augmented_states
         self.physics_lr = physics_lr
         self.validation_split = validation_split
         self.stride = stride
@@ -472,10 +484,11 @@ class StateSpaceHybridRegressor(
         }
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(self._seeds[0])
-            encoder = mlp(n_enc, n_states, self.encoder_hidden_layer_sizes)
+            n_aug = self.n_augmented_states
+            encoder = mlp(n_enc, n_states + n_aug, self.encoder_hidden_layer_sizes)
             correction = mlp(
-                len(self._corr_idx) + self.n_inputs_,
-                n_states,
+                len(self._corr_idx) + n_aug + self.n_inputs_,
+                n_states + n_aug,
                 self.hidden_layer_sizes,
             )
         # The correction starts at zero (a random start would add a drift that
@@ -504,6 +517,8 @@ class StateSpaceHybridRegressor(
             has_prior=self.physics_initial_state,
             scales=scales,
             dt=physics.dt,
+            n_augmented=self.n_augmented_states,
+            augmented_scale=self.correction_scale,
         )
 
     # -- training ------------------------------------------------------------------
@@ -972,14 +987,16 @@ n_init, n_outputs) or list of 2-D arrays
                 x = torch.as_tensor(x)
                 for t in range(U_run.shape[1]):
                     x = self.module_.advance(x, U_run[:, t], self._params_t)
-                    outs.append(self.physics_.observe(x, self._params_t))
+                    outs.append(self.module_.observe(x, self._params_t))
             if not outs:
                 return np.zeros((len(U_run), 0, self.n_outputs_))
             return torch.stack(outs, dim=1).numpy()
 
         def residuals(Z, index):
             with np.errstate(all="ignore"):
-                first = self.physics_.observe(Z, self.params_)
+                first = self.physics_.observe(
+                    Z[:, : len(self.state_mean_)], self.params_
+                )
                 rest = run(Z, u[index, k - 1 : s - 1])
                 r = np.concatenate([first[:, None], rest], axis=1) - Y[index, k - 1 :]
             return r.reshape(len(index), -1)

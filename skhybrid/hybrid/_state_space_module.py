@@ -72,6 +72,14 @@ class StateSpaceHybridModule(nn.Module):
         is not corrected), registered as buffers.
     dt : float or None
         The sample period (for the continuous correction's rate).
+    n_augmented : int, default=0
+        Latent states beside the physics' own, in standardised units: the
+        encoder estimates them, the correction reads them and moves them by
+        ``augmented_scale`` times its output per sample, and the physics never
+        sees them. They follow the physics' states in the state vector.
+    augmented_scale : float, default=0.1
+        Change of an augmented state per sample per unit of the correction's
+        output.
     """
 
     def __init__(
@@ -91,6 +99,8 @@ class StateSpaceHybridModule(nn.Module):
         has_prior,
         scales,
         dt,
+        n_augmented=0,
+        augmented_scale=0.1,
     ):
         super().__init__()
         self.physics = physics
@@ -106,6 +116,8 @@ class StateSpaceHybridModule(nn.Module):
         self.encoder_absolute = encoder_absolute
         self.has_prior = has_prior
         self.dt = dt
+        self.n_augmented = int(n_augmented)
+        self.augmented_scale = float(augmented_scale)
         for name, value in scales.items():
             self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
 
@@ -134,6 +146,8 @@ class StateSpaceHybridModule(nn.Module):
         if feats.shape[1] == 0:
             feats = torch.zeros((n, 1), dtype=Yw.dtype, device=Yw.device)
         z = self.encoder(feats)
+        n_physics = self.state_mean.shape[0]
+        z, augmented = z[:, :n_physics], z[:, n_physics:]
         base = self.state_mean.expand(n, -1) if prior is None else prior
         scale = self.state_scale
         if self.observed is not None:
@@ -144,28 +158,52 @@ class StateSpaceHybridModule(nn.Module):
             base[:, self.observed] = last
             scale = scale.clone()
             scale[self.observed] = self.step_scale[self.observed]
-        return base + scale * z
+        return torch.cat([base + scale * z, augmented], dim=1)
+
+    def observe(self, x, params):
+        """The outputs ``(n, n_outputs)`` of states ``x`` (augmented ones ignored)."""
+        return self.physics.observe(x[:, : self.state_mean.shape[0]], params)
 
     def correct(self, x, u):
-        """The correction network's output ``(n, n_states)`` at states ``x``."""
+        """The correction ``(n, n_states + n_augmented)`` at states ``x``.
+
+        ``x`` holds the physics' states, then the augmented ones (if any).
+        """
         idx = self.corr_idx
         feats = [(x[:, idx] - self.state_mean[idx]) / self.state_scale[idx]]
+        if self.n_augmented:
+            feats.append(x[:, self.state_mean.shape[0] :])
         if self.n_inputs:
             feats.append((u - self.u_mean) / self.u_scale)
         return self.correction(torch.cat(feats, dim=1))
 
     def advance(self, x, u, params):
         """The state one sample after ``x`` under ``u``, corrected."""
+        n_physics = self.state_mean.shape[0]
+        xp, augmented = x[:, :n_physics], x[:, n_physics:]
         if self.continuous_correction:
             # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
             # physics: one sample of the correction moves each state by about
-            # c * S, as in the "step" form.
+            # c * S, as in the "step" form. The augmented states are held
+            # over the sample inside the integration.
             rate = self.correction_scale / float(self.dt)
-            return self.physics.step(
-                x, u, params, correction=lambda z, v: rate * self.correct(z, v)
-            )
-        x_next = self.physics.step(x, u, params)
-        return x_next + self.correction_scale * self.correct(x, u)
+
+            def term(z, v):
+                full = torch.cat([z, augmented], dim=1)
+                return rate * self.correct(full, v)[:, :n_physics]
+
+            x_next = self.physics.step(xp, u, params, correction=term)
+            if not self.n_augmented:
+                return x_next
+            c = self.correct(x, u)
+        else:
+            c = self.correct(x, u)
+            x_next = self.physics.step(xp, u, params)
+            x_next = x_next + self.correction_scale * c[:, :n_physics]
+            if not self.n_augmented:
+                return x_next
+        moved = augmented + self.augmented_scale * c[:, n_physics:]
+        return torch.cat([x_next, moved], dim=1)
 
     def rollout(self, Yw, Uw, U_future, prior=None, params=None):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
@@ -177,7 +215,7 @@ class StateSpaceHybridModule(nn.Module):
         outs = []
         for t in range(U_future.shape[1]):
             x = self.advance(x, U_future[:, t], params)
-            outs.append(self.physics.observe(x, params))
+            outs.append(self.observe(x, params))
         return torch.stack(outs, dim=1)
 
     # -- training --------------------------------------------------------------
@@ -250,5 +288,5 @@ class EncoderModule(nn.Module):
         h = self.hybrid
         Y, U, _ = h.unpack(Z)
         k = h.n_init
-        state = h.encode(Y[:, :k], U[:, : k - 1])
+        state = h.encode(Y[:, :k], U[:, : k - 1])[:, : h.state_mean.shape[0]]
         return (state - h.state_mean) / h.state_scale

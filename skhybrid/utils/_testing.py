@@ -94,6 +94,8 @@ FAST_PARAMS = {
         ),
         hidden_layer_sizes=(8,),
         encoder_hidden_layer_sizes=(8,),
+        # One augmented state: the checks run its encoder and correction too.
+        n_augmented_states=1,
         max_epochs=5,
         encoder_epochs=5,
         lr=0.01,

@@ -141,9 +141,10 @@ class _Benchmark(MeasuredSystem):
         )
 
 
-# The EMPS's and the Silverbox's own hybrids keep the short training they were
-# chosen with in 0.2 (their records hold 25,000 to 80,000 samples; the family's
-# longer training, see hybrid_settings, was not tried on them).
+# The EMPS's own hybrids keep the short training they were chosen with in 0.2
+# (the family's longer training, see hybrid_settings, was not tried on them:
+# the hybrid stays at its physics, and the validation tail cannot see the test
+# record's force pulses).
 _SHORT = {"lr": 3e-3, "batch_size": 64, "max_epochs": 40, "patience": 5}
 
 
@@ -216,9 +217,14 @@ class Silverbox(_Benchmark):
         n = 16384 if quick else len(train.u)
         names = ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation")
         common = {"corrected_states": ["derivative (latent)"]}
+        # The state-space hybrid's own defaults (a sub-sequence every quarter
+        # horizon, up to 500 epochs), chosen on the validation tail (seed 0):
+        # 0.225 mV against 0.68 for 0.2's short training of T = 50 and 200, and
+        # 0.250 for the family's 200 epochs (where T = 200 gave 0.727).
         hybrids = {
-            f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common, **_SHORT)
-            for T, h, stride in ((50, (32, 32), 50), (200, (32, 32), 100))
+            "T=50, (64, 64)": hybrid_settings(
+                50, (64, 64), stride="auto", max_epochs=500, **common
+            )
         }
         return self.build_spec(
             data,
@@ -324,8 +330,8 @@ BUILTIN_NOTES = {
     "silverbox": (
         "Own candidates: 512-sample segments (a lightly damped oscillator's "
         "long free runs have local minima), inputs held as [u(t), u(t+1)] "
-        "(first-order hold) and hybrids that correct the latent derivative; "
-        "chosen in 0.2 on the validation tail."
+        "(first-order hold) and a hybrid that corrects the latent derivative, "
+        "trained as the hybrid's defaults do; chosen on the validation tail."
     ),
     "coupled-electric-drives": (
         "The default family. The physics (motor lag, belt resonance, unsigned "

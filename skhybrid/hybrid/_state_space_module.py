@@ -82,6 +82,10 @@ class StateSpaceHybridModule(nn.Module):
         output.
     """
 
+    # Defaults for modules pickled before augmented states existed.
+    n_augmented = 0
+    augmented_scale = 0.1
+
     def __init__(
         self,
         physics,

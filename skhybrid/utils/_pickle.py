@@ -9,6 +9,7 @@ other versions, as scikit-learn does for its own version.
 """
 
 import functools
+import inspect
 import warnings
 from importlib.metadata import PackageNotFoundError, version
 
@@ -56,6 +57,8 @@ class VersionedPickleMixin:
     ``__setstate__`` compares them with the installed ones and warns with one
     :class:`~skhybrid.exceptions.InconsistentVersionWarning` naming every package
     that differs. Pickles made before versions were recorded load silently.
+    A pickle made before a parameter was added loads with that parameter at its
+    default (new parameters default to the behaviour before them).
     """
 
     def __getstate__(self):
@@ -92,3 +95,6 @@ class VersionedPickleMixin:
             super().__setstate__(state)
         except AttributeError:  # plain objects have no __setstate__
             self.__dict__.update(state)
+        for name, param in inspect.signature(type(self).__init__).parameters.items():
+            if param.default is not param.empty and name not in self.__dict__:
+                setattr(self, name, param.default)

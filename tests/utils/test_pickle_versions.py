@@ -80,3 +80,46 @@ def test_fitted_model_predicts_the_same_after_a_round_trip(fitted, rng):
         np.testing.assert_array_equal(
             restored.predict(X), estimator.predict(X), err_msg=name
         )
+
+
+class _Older(VersionedPickleMixin):
+    def __init__(self, alpha=1.0):
+        self.alpha = alpha
+
+
+class _Newer(_Older):
+    def __init__(self, alpha=1.0, beta="new"):
+        super().__init__(alpha)
+        self.beta = beta
+
+
+def test_a_pickle_from_before_a_parameter_loads_it_at_its_default(monkeypatch):
+    blob = pickle.dumps(_Older(alpha=2.0))
+    # The class gains a parameter between pickling and loading.
+    monkeypatch.setattr(_Older, "__init__", _Newer.__init__)
+    restored = pickle.loads(blob)
+    assert restored.alpha == 2.0
+    assert restored.beta == "new"
+
+
+def test_a_state_space_hybrid_from_before_augmented_states_simulates_the_same():
+    from skhybrid.hybrid import StateSpaceHybridRegressor
+
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, (3, 60, 1))
+    y = np.cumsum(u, axis=1) * 0.1
+    (estimator,) = (
+        e for e in fast_instances() if isinstance(e, StateSpaceHybridRegressor)
+    )
+    model = estimator.set_params(n_augmented_states=0, n_init=3)
+    model.fit_simulation(u, y)
+    old = pickle.loads(pickle.dumps(model))
+    for name in ("n_augmented_states", "physics_lr"):
+        del old.__dict__[name]
+    for name in ("n_augmented", "augmented_scale"):
+        del old.module_.__dict__[name]
+    restored = pickle.loads(pickle.dumps(old))
+    assert restored.get_params()["n_augmented_states"] == 0
+    np.testing.assert_array_equal(
+        restored.simulate(u, y[:, :5]), model.simulate(u, y[:, :5])
+    )

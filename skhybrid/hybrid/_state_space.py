@@ -578,10 +578,18 @@ class StateSpaceHybridRegressor(
             sequences=True,
             start_as_candidate=True,
             seed=self._seeds[2],
+            # The networks' group first: the history's ``event_lr`` is the
+            # first group's rate.
             optimizer_kwargs=(
                 None
                 if self.physics_lr is None
-                else {"param_groups": [("params.*", {"lr": self.physics_lr})]}
+                else {
+                    "param_groups": [
+                        ("encoder.*", {}),
+                        ("correction.*", {}),
+                        ("params.*", {"lr": self.physics_lr}),
+                    ]
+                }
             ),
         )
         record_training(self, net)

@@ -117,6 +117,8 @@ def test_physics_lr_sets_the_physical_parameters_own_rate():
     settings = dict(max_epochs=10, lr=0.01, patience=None)
     held = _model(physics_lr=0.0, **settings).fit_simulation(u, y)
     assert held.params_ == pytest.approx(held.params_init_, abs=0, rel=0)
+    # The history reports the networks' rate.
+    assert held.history_[0, "event_lr"] == 0.01
     moved = {
         rate: abs(
             _model(physics_lr=rate, **settings).fit_simulation(u, y).params_["a"]

@@ -5,9 +5,10 @@ follows from its documented command: for each benchmark it runs ``skhybrid run
 SYSTEM --data DIR --out RUNS/SYSTEM`` (seeds 0, 1, 2 in the one run, each a full
 selection, sealed before the test; a run folder that already holds a finished
 run is reused), then compares the test RMSE of the model chosen on validation
-with the recorded figures below: the same model must be chosen at every seed,
-and the new mean over the seeds must lie within the recorded range widened by
-half its width (or by 2 % where the figure does not depend on the seed).
+with the recorded figures below: the same models must be chosen (the set over
+the seeds), and the new mean over the seeds must lie within the recorded range
+widened by half its width (or by 2 % where the figure does not depend on the
+seed).
 
 Run: ``python benchmarks/check_measured_reference.py --data ../shared/data``
 (about an hour on 2 cores); ``--runs DIR`` keeps the run folders, ``--only
@@ -20,7 +21,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-#: docs/experiments.md, "Reference results, sealed, after the state-space hybrid's fix":
+#: docs/experiments.md, "Reference results, sealed, after the state-space hybrid's fix"
+#: (the Silverbox and the friction damper: "... with the Silverbox's hybrid trained
+#: longer"):
 #: system -> (chosen model, or the models chosen at the seeds, {split: (mean, min,
 #: max)}), official units; the figures are those of each seed's chosen model.
 REFERENCE = {
@@ -33,12 +36,14 @@ REFERENCE = {
     ),
     # The state-space hybrid at its starting physics (best epoch 0), issue 24.
     "emps": ("state-space hybrid", {"test": (8.76, 8.76, 8.76)}),
+    # Seed 0 chooses the state-space hybrid, seeds 1 and 2 the ensemble (issue
+    # 24, the hybrid trained as its defaults do).
     "silverbox": (
-        "physics + dense ensemble",
+        ("physics + dense ensemble", "state-space hybrid"),
         {
-            "test_multisine": (0.2232, 0.2213, 0.2252),
-            "test_arrow_full": (0.2933, 0.2920, 0.2948),
-            "test_arrow_no_extrapolation": (0.2267, 0.2238, 0.2282),
+            "test_multisine": (0.2260, 0.2213, 0.2336),
+            "test_arrow_full": (0.4859, 0.2930, 0.8698),
+            "test_arrow_no_extrapolation": (0.2297, 0.2282, 0.2326),
         },
     ),
     "coupled-electric-drives": (

@@ -126,6 +126,11 @@ class StateSpaceHybridModule(nn.Module):
             self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
 
     # -- the model -----------------------------------------------------------------
+    @property
+    def n_physics_states(self):
+        """Number of the physics' states (the augmented ones follow them)."""
+        return self.state_mean.shape[0]
+
     def physical_params(self):
         """Every physical parameter by name, free ones differentiable.
 
@@ -150,7 +155,7 @@ class StateSpaceHybridModule(nn.Module):
         if feats.shape[1] == 0:
             feats = torch.zeros((n, 1), dtype=Yw.dtype, device=Yw.device)
         z = self.encoder(feats)
-        n_physics = self.state_mean.shape[0]
+        n_physics = self.n_physics_states
         z, augmented = z[:, :n_physics], z[:, n_physics:]
         base = self.state_mean.expand(n, -1) if prior is None else prior
         scale = self.state_scale
@@ -166,7 +171,7 @@ class StateSpaceHybridModule(nn.Module):
 
     def observe(self, x, params):
         """The outputs ``(n, n_outputs)`` of states ``x`` (augmented ones ignored)."""
-        return self.physics.observe(x[:, : self.state_mean.shape[0]], params)
+        return self.physics.observe(x[:, : self.n_physics_states], params)
 
     def correct(self, x, u):
         """The correction ``(n, n_states + n_augmented)`` at states ``x``.
@@ -176,14 +181,14 @@ class StateSpaceHybridModule(nn.Module):
         idx = self.corr_idx
         feats = [(x[:, idx] - self.state_mean[idx]) / self.state_scale[idx]]
         if self.n_augmented:
-            feats.append(x[:, self.state_mean.shape[0] :])
+            feats.append(x[:, self.n_physics_states :])
         if self.n_inputs:
             feats.append((u - self.u_mean) / self.u_scale)
         return self.correction(torch.cat(feats, dim=1))
 
     def advance(self, x, u, params):
         """The state one sample after ``x`` under ``u``, corrected."""
-        n_physics = self.state_mean.shape[0]
+        n_physics = self.n_physics_states
         xp, augmented = x[:, :n_physics], x[:, n_physics:]
         if self.continuous_correction:
             # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
@@ -197,15 +202,13 @@ class StateSpaceHybridModule(nn.Module):
                 return rate * self.correct(full, v)[:, :n_physics]
 
             x_next = self.physics.step(xp, u, params, correction=term)
-            if not self.n_augmented:
-                return x_next
-            c = self.correct(x, u)
+            c = self.correct(x, u) if self.n_augmented else None
         else:
             c = self.correct(x, u)
             x_next = self.physics.step(xp, u, params)
             x_next = x_next + self.correction_scale * c[:, :n_physics]
-            if not self.n_augmented:
-                return x_next
+        if not self.n_augmented:
+            return x_next
         moved = augmented + self.augmented_scale * c[:, n_physics:]
         return torch.cat([x_next, moved], dim=1)
 
@@ -246,7 +249,7 @@ class StateSpaceHybridModule(nn.Module):
 
     def unpack(self, Z):
         """``(Y, U, prior)`` from packed rows (see :meth:`pack`)."""
-        n_states = self.state_mean.shape[0] if self.has_prior else 0
+        n_states = self.n_physics_states if self.has_prior else 0
         width = self.n_outputs + self.n_inputs
         L = (Z.shape[1] - n_states) // width
         Y = Z[:, : L * self.n_outputs].reshape(len(Z), L, self.n_outputs)
@@ -292,5 +295,5 @@ class EncoderModule(nn.Module):
         h = self.hybrid
         Y, U, _ = h.unpack(Z)
         k = h.n_init
-        state = h.encode(Y[:, :k], U[:, : k - 1])[:, : h.state_mean.shape[0]]
+        state = h.encode(Y[:, :k], U[:, : k - 1])[:, : h.n_physics_states]
         return (state - h.state_mean) / h.state_scale

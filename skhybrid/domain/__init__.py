@@ -6,6 +6,7 @@ Every model declares named parameters with initial values, optional bounds and a
 """
 
 from skhybrid.domain._base import DomainModel
+from skhybrid.domain._block import WienerHammersteinModel
 from skhybrid.domain._friction import (
     asymmetric_friction,
     coulomb_viscous_friction,
@@ -23,6 +24,7 @@ __all__ = [
     "ParametricModel",
     "PendulumModel",
     "StateSpaceModel",
+    "WienerHammersteinModel",
     "asymmetric_friction",
     "check_identifiability",
     "coulomb_viscous_friction",

@@ -22,10 +22,10 @@ from skhybrid.datasets import (
     load_silverbox,
     load_wiener_hammerstein,
 )
+from skhybrid.domain import WienerHammersteinModel
 from skhybrid.experiments._measured import MeasuredSystem
 from skhybrid.experiments._measured_physics import (
     CED_STARTS,
-    _LinearOutputError,
     ced_physics,
     emps_physics,
     friction_damper_physics,
@@ -282,8 +282,9 @@ class WienerHammerstein(_Benchmark):
             [(train.u[:n], train.y[:n])],
             {"test": "test"},
             # The data sheet: two linear filters around a static nonlinearity,
-            # nominal order 6; the physics is the best linear approximation.
-            physics=_LinearOutputError(order=6, max_nfev=50),
+            # nominal order 6: a Wiener-Hammerstein model started from the
+            # best linear approximation's best pole/zero splits.
+            physics=WienerHammersteinModel(order=6),
             segments=(None,),
             hybrids=None,
         )
@@ -339,10 +340,12 @@ BUILTIN_NOTES = {
         "frequencies, each fitted briefly on the records it is fitted on."
     ),
     "wiener-hammerstein": (
-        "The physics is the best linear approximation (a 6th-order output-error "
-        "model, ARX start): no multiple shooting and no state-space hybrid, which "
-        "needs a StateSpaceModel physics; the static nonlinearity is left to the "
-        "corrections."
+        "The physics is a WienerHammersteinModel: two linear filters around a "
+        "spline nonlinearity, started from the best pole/zero splits of the best "
+        "linear approximation (6th order) and refined by the free-run error. No "
+        "multiple shooting and no state-space hybrid, which needs a "
+        "StateSpaceModel physics. Chosen on the validation tail: 0.287 mV, "
+        "against 2.40 for the linear approximation's dense corrections."
     ),
     "friction-damper": (
         "The default family. No official split or protocol: the harmonic tests "

@@ -102,6 +102,7 @@ FAST_PARAMS = {
         random_state=0,
     ),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),
+    "WienerHammersteinModel": dict(order=2, n_knots=4, n_starts=1, max_nfev=5),
     "StateSpaceModel": dict(
         rhs=affine_step,
         params={"a": 0.5, "b": 0.1},

@@ -1,0 +1,550 @@
+"""WienerHammersteinModel: two linear filters around a static nonlinearity."""
+
+import itertools
+import warnings
+from numbers import Integral
+
+import numpy as np
+from scipy.interpolate import BSpline
+from scipy.optimize import least_squares
+from scipy.signal import lfilter
+from sklearn.base import BaseEstimator
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils import check_array
+from sklearn.utils.validation import check_is_fitted
+
+from skhybrid.domain._output_error import _LinearOutputError
+from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._sklearn_compat import Interval, _fit_context, validate_data
+
+__all__ = ["WienerHammersteinModel"]
+
+#: Most pole/zero splits :meth:`WienerHammersteinModel.fit` scans.
+MAX_SPLITS = 4096
+#: A filter's memory: the samples for its slowest pole to decay to this fraction.
+MEMORY_DECAY = 1e-3
+#: Largest residual of the fit: a non-finite simulated sample counts as this.
+NON_FINITE_RESIDUAL = 1e6
+
+
+def _groups(roots):
+    """Split roots into groups a real filter keeps together: reals, conjugate pairs."""
+    roots = list(roots)
+    used = [False] * len(roots)
+    out = []
+    for i, z in enumerate(roots):
+        if used[i]:
+            continue
+        used[i] = True
+        if abs(z.imag) > 1e-8 * max(1.0, abs(z)):
+            rest = [k for k in range(len(roots)) if not used[k]]
+            j = min(rest, key=lambda k: abs(roots[k] - np.conj(z)))
+            used[j] = True
+            out.append([z, roots[j]])
+        else:
+            out.append([z.real])
+    return out
+
+
+def _polynomial(roots):
+    """Real coefficients (``[1, ...]``) of the monic polynomial with these roots."""
+    return np.real(np.poly(roots)) if len(roots) else np.array([1.0])
+
+
+def _memory(a):
+    """Samples for the slowest pole of ``1 / a(q)`` to decay by :data:`MEMORY_DECAY`."""
+    radius = np.max(np.abs(np.roots(a)), initial=0.0)
+    if radius <= 0:
+        return 1
+    if radius >= 1:
+        return np.iinfo(np.int64).max
+    return int(np.ceil(np.log(MEMORY_DECAY) / np.log(radius)))
+
+
+def _is_stable(a):
+    return bool(np.all(np.abs(np.roots(a)) < 1))
+
+
+class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
+    """Two linear filters around a static nonlinearity, started from the linear fit.
+
+    The block structure of many electronic and mechanical systems: the inputs
+    pass a linear filter ``G1``, a static (memoryless) nonlinearity ``f`` and a
+    second linear filter ``G2``::
+
+        x(t) = sum_j B1_j(q) / A1(q) u_j(t),   y(t) = B2(q) / A2(q) f(x(t))
+
+    ``f`` is a cubic spline with ``n_knots`` equally spaced knots over the
+    range of ``x`` in the data, continued linearly beyond it. A Wiener model
+    (``G2 = 1``) and a Hammerstein model (``G1 = 1``) are the special cases
+    where all poles and zeros sit in one filter.
+
+    Such a model is fitted in the way of Sjoberg, Lauwers & Schoukens (2012):
+
+    1. the best linear approximation (BLA) of the system, a linear
+       output-error model of ``order`` poles and zeros fitted by simulation
+       error, whose poles and zeros are the two filters' together;
+    2. every split of the BLA's poles and zeros between ``G1`` and ``G2``
+       (real roots and complex-conjugate pairs move as one), each scored by
+       the nonlinearity fitted to it by linear least squares (``f``'s spline
+       coefficients enter the output linearly once both filters are fixed),
+       on at most ``scan_samples`` samples;
+    3. the ``n_starts`` best splits refined, every coefficient of both filters
+       and of the spline together, by the free-run (output) error with
+       :func:`scipy.optimize.least_squares`; the refined model with the
+       lowest error on the fitted records is kept.
+
+    A single local refinement from the BLA rarely finds the global optimum:
+    which split is right only shows once the nonlinearity is fitted, and the
+    best split before refinement need not be the best after it.
+
+    The filters start at rest at a record's first sample. The first
+    ``transient`` samples of each record (by default the BLA's memory: the
+    samples its slowest pole takes to decay by 1e-3) are left out of the fit,
+    and :meth:`simulate` returns the measured initial window in place of the
+    model's first samples: make that window at least ``memory_`` samples long.
+
+    Parameters
+    ----------
+    order : int, default=6
+        Number of poles (and of zeros) of the best linear approximation, shared
+        out between the two filters.
+    n_knots : int, default=20
+        Knots of the nonlinearity's cubic spline, ends included (``n_knots +
+        2`` coefficients).
+    n_starts : int, default=4
+        Best-scoring splits refined by the free-run error.
+    max_nfev : int, default=200
+        Most residual evaluations of each refinement (0 keeps the scanned
+        splits' linear fits).
+    transient : int or None, default=None
+        Samples at the start of each record left out of the fit; None uses the
+        BLA's memory (at most a quarter of the shortest record).
+    scan_samples : int, default=20000
+        Most samples of the records (the first of each, in proportion) on which
+        the splits are scanned.
+
+    Attributes
+    ----------
+    a1_, a2_ : ndarray of shape (n_poles_1 + 1,) and (n_poles_2 + 1,)
+        Denominators ``[1, ...]`` of ``G1`` and ``G2``.
+    b1_ : ndarray of shape (n_features_in_, n_zeros_1 + 1)
+        Numerators of ``G1``, one row per input.
+    b2_ : ndarray of shape (n_zeros_2 + 1,)
+        Numerator of ``G2``.
+    knots_ : ndarray of shape (n_knots + 6,)
+        Knot vector of the spline (its ends repeated three times).
+    spline_coef_ : ndarray of shape (n_knots + 2,)
+        Coefficients of the spline ``f``.
+    bla_ : object
+        The best linear approximation: ``a_`` (denominator), ``b_`` (numerators,
+        one row per input), ``c_`` (output offset) and ``rmse_``.
+    splits_ : list of dict
+        The refined splits, best first: ``poles_1`` and ``zeros_1`` (the roots
+        in ``G1``; the others are in ``G2``), ``scan_rmse`` (the linear fit of
+        ``f`` on the scanned samples), ``rmse`` (after refinement, over the
+        fitted records) and ``nfev``.
+    n_splits_ : int
+        Number of splits scanned.
+    rmse_ : float
+        Free-run RMSE over the fitted records (their transients left out).
+    memory_ : int
+        Samples for the slowest pole of either filter to decay by 1e-3.
+    transient_ : int
+        Samples left out at the start of each record.
+    n_features_in_ : int
+        Number of inputs.
+
+    See Also
+    --------
+    skhybrid.domain.StateSpaceModel : A physics model of its own equations.
+
+    References
+    ----------
+    J. Sjoberg, L. Lauwers, J. Schoukens, "Identification of Wiener-Hammerstein
+    models: two algorithms based on the best split of a linear model applied to
+    the SYSID'09 benchmark problem", Control Engineering Practice 20(11), 2012.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from skhybrid.domain import WienerHammersteinModel
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=3000)
+    >>> x = lfilter([0.0, 0.5], [1.0, -0.5], u)
+    >>> y = lfilter([0.0, 0.3], [1.0, -0.7], np.tanh(x))
+    >>> model = WienerHammersteinModel(order=2, n_knots=8).fit(u[:, None], y)
+    >>> y_sim = model.simulate(u[:, None], y[:20])
+    >>> bool(np.sqrt(np.mean((y_sim - y[:, None]) ** 2)) < 1e-3)
+    True
+    """
+
+    _parameter_constraints = {
+        "order": [Interval(Integral, 1, None, closed="left")],
+        "n_knots": [Interval(Integral, 2, None, closed="left")],
+        "n_starts": [Interval(Integral, 1, None, closed="left")],
+        "max_nfev": [Interval(Integral, 0, None, closed="left")],
+        "transient": [Interval(Integral, 0, None, closed="left"), None],
+        "scan_samples": [Interval(Integral, 1, None, closed="left")],
+    }
+
+    def __init__(
+        self,
+        order=6,
+        *,
+        n_knots=20,
+        n_starts=4,
+        max_nfev=200,
+        transient=None,
+        scan_samples=20000,
+    ):
+        self.order = order
+        self.n_knots = n_knots
+        self.n_starts = n_starts
+        self.max_nfev = max_nfev
+        self.transient = transient
+        self.scan_samples = scan_samples
+
+    # -- data ----------------------------------------------------------------------
+    def _records(self, X, y):
+        """Validated ``(inputs, outputs)`` records: one record or a list of them."""
+        several = (
+            isinstance(X, (list, tuple))
+            and isinstance(y, (list, tuple))
+            and len(X) == len(y)
+            and len(y) > 0
+            and all(np.ndim(y_i) >= 1 for y_i in y)
+        )
+        if not several:
+            X, y = validate_data(
+                self, X, y, y_numeric=True, multi_output=True, dtype=np.float64
+            )
+            U, Y = [X], [y]
+        else:
+            U, Y = [], []
+            for u_i, y_i in zip(X, y, strict=True):
+                U.append(check_array(u_i, dtype=np.float64, input_name="X"))
+                Y.append(
+                    check_array(y_i, dtype=np.float64, ensure_2d=False, input_name="y")
+                )
+            widths = {u.shape[1] for u in U}
+            if len(widths) > 1:
+                raise ValueError(
+                    f"Every record of X needs the same number of inputs; got "
+                    f"{sorted(widths)}."
+                )
+            self.n_features_in_ = U[0].shape[1]
+        for u_i, y_i in zip(U, Y, strict=True):
+            if y_i.ndim == 2 and y_i.shape[1] != 1:
+                raise ValueError(
+                    f"WienerHammersteinModel models one output; y has "
+                    f"{y_i.shape[1]} columns."
+                )
+            if len(y_i) != len(u_i):
+                raise ValueError(
+                    f"A record's X and y differ in length: {len(u_i)} and {len(y_i)}."
+                )
+            shortest = 2 * (self.order + 1)
+            if len(y_i) < shortest:
+                raise ValueError(
+                    f"WienerHammersteinModel(order={self.order}) needs records of "
+                    f"at least {shortest} samples; got {len(y_i)} sample(s)."
+                )
+        return U, [np.ravel(y_i) for y_i in Y]
+
+    # -- the model -----------------------------------------------------------------
+    @staticmethod
+    def _nonlinearity(x, knots, coef):
+        """The spline ``f(x)``, continued linearly beyond its end knots."""
+        lo, hi = knots[3], knots[-4]
+        spline = BSpline(knots, coef, 3)
+        inside = np.clip(x, lo, hi)
+        v = spline(inside)
+        below, above = x < lo, x > hi
+        if below.any() or above.any():
+            slope = spline.derivative()
+            v = v + np.where(below, slope(lo) * (x - lo), 0.0)
+            v = v + np.where(above, slope(hi) * (x - hi), 0.0)
+        return v
+
+    @staticmethod
+    def _first_filter(a1, b1, u):
+        return sum(lfilter(b1[j], a1, u[:, j]) for j in range(u.shape[1]))
+
+    def _run(self, a1, b1, a2, b2, coef, knots, u):
+        """Free run of the block model over the inputs ``u``, from rest."""
+        with np.errstate(all="ignore"):
+            x = self._first_filter(a1, b1, u)
+            return lfilter(b2, a2, self._nonlinearity(x, knots, coef))
+
+    # -- the split scan ------------------------------------------------------------
+    def _splits(self, bla, n_inputs):
+        """Every ``(poles_1, zeros_1, poles_2, zeros_2)`` split of the BLA's roots.
+
+        Unstable poles are mirrored into the unit circle first. With several
+        inputs every numerator stays in ``G1`` (their zeros differ).
+        """
+        poles = np.roots(bla.a_)
+        poles = np.where(np.abs(poles) >= 1, 1 / np.conj(poles), poles)
+        pole_groups = _groups(poles)
+        zero_groups = _groups(np.roots(bla.b_[0])) if n_inputs == 1 else []
+        n_splits = 2 ** (len(pole_groups) + len(zero_groups))
+        if n_splits > MAX_SPLITS:
+            raise ValueError(
+                f"order={self.order} gives {n_splits} pole/zero splits to scan, more "
+                f"than {MAX_SPLITS}; lower the order."
+            )
+        for pm in itertools.product((0, 1), repeat=len(pole_groups)):
+            for zm in itertools.product((0, 1), repeat=len(zero_groups)):
+                yield tuple(
+                    [
+                        r
+                        for g, k in zip(groups, mask, strict=True)
+                        if k == side
+                        for r in g
+                    ]
+                    for side in (0, 1)
+                    for groups, mask in ((pole_groups, pm), (zero_groups, zm))
+                )
+
+    def _split_filters(self, bla, split, u_scan):
+        """Both filters of a split, ``G1`` scaled to a unit-variance output."""
+        poles_1, zeros_1, poles_2, zeros_2 = split
+        a1, a2 = _polynomial(poles_1), _polynomial(poles_2)
+        if bla.b_.shape[0] == 1:
+            b1 = _polynomial(zeros_1)[None, :]
+            b2 = _polynomial(zeros_2)
+        else:
+            b1, b2 = bla.b_.copy(), np.array([1.0])
+        x = self._first_filter(a1, b1, u_scan)
+        scale = np.std(x)
+        b1 = b1 / scale if np.isfinite(scale) and scale > 0 else b1
+        b2 = b2 / np.max(np.abs(b2))
+        return a1, b1, a2, b2
+
+    def _linear_fit(self, filters, U, Y, transient):
+        """The spline's knots and coefficients by linear least squares, and the RMSE."""
+        a1, b1, a2, b2 = filters
+        X = [self._first_filter(a1, b1, u) for u in U]
+        lo = min(np.min(x) for x in X)
+        hi = max(np.max(x) for x in X)
+        if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+            return None, None, np.inf
+        inner = np.linspace(lo, hi, self.n_knots)
+        knots = np.r_[[lo] * 3, inner, [hi] * 3]
+        rows, targets = [], []
+        for x, y in zip(X, Y, strict=True):
+            design = BSpline.design_matrix(np.clip(x, lo, hi), knots, 3).toarray()
+            filtered = lfilter(b2, a2, design, axis=0)
+            rows.append(filtered[transient:])
+            targets.append(y[transient:])
+        rows, targets = np.vstack(rows), np.concatenate(targets)
+        coef, *_ = np.linalg.lstsq(rows, targets, rcond=None)
+        rmse = float(np.sqrt(np.mean((rows @ coef - targets) ** 2)))
+        return knots, coef, rmse if np.isfinite(rmse) else np.inf
+
+    # -- refinement ----------------------------------------------------------------
+    def _refine(self, filters, knots, coef, U, Y, transient):
+        """Every coefficient by the free-run error; returns the parameters and fit."""
+        a1, b1, a2, b2 = filters
+        n1, n2 = len(a1) - 1, len(a2) - 1
+        # G2's largest numerator coefficient stays fixed: scaling G2 against the
+        # spline would otherwise leave the problem one direction short of rank.
+        fixed = int(np.argmax(np.abs(b2)))
+        free_b2 = np.delete(np.arange(len(b2)), fixed)
+
+        def unpack(theta):
+            i = 0
+            a1_ = np.r_[1.0, theta[i : i + n1]]
+            i += n1
+            b1_ = theta[i : i + b1.size].reshape(b1.shape)
+            i += b1.size
+            a2_ = np.r_[1.0, theta[i : i + n2]]
+            i += n2
+            b2_ = b2.copy()
+            b2_[free_b2] = theta[i : i + len(free_b2)]
+            i += len(free_b2)
+            return a1_, b1_, a2_, b2_, theta[i:]
+
+        def residuals(theta):
+            parts = [
+                (self._run(*unpack(theta), knots, u) - y)[transient:]
+                for u, y in zip(U, Y, strict=True)
+            ]
+            r = np.concatenate(parts)
+            # A run that blows up gets large finite residuals, not inf or NaN.
+            r = np.where(np.isfinite(r), r, NON_FINITE_RESIDUAL)
+            return np.clip(r, -NON_FINITE_RESIDUAL, NON_FINITE_RESIDUAL)
+
+        theta0 = np.concatenate([a1[1:], b1.ravel(), a2[1:], b2[free_b2], coef])
+        if self.max_nfev == 0:
+            r = residuals(theta0)
+            return unpack(theta0), float(np.sqrt(np.mean(r**2))), 0, False
+        n_residuals = sum(len(y) - transient for y in Y)
+        method = "lm" if n_residuals >= len(theta0) else "trf"
+        fit = least_squares(
+            residuals, theta0, method=method, x_scale="jac", max_nfev=self.max_nfev
+        )
+        params = unpack(fit.x)
+        if not (_is_stable(params[0]) and _is_stable(params[2])):
+            # A refinement that leaves the stable filters is not used.
+            r = residuals(theta0)
+            return unpack(theta0), float(np.sqrt(np.mean(r**2))), fit.nfev, False
+        rmse = float(np.sqrt(np.mean(fit.fun**2)))
+        return params, rmse, fit.nfev, fit.status == 0
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Fit on one record or several: the BLA, the split scan, the refinements.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_times, n_inputs), or list of them
+            The inputs of one record, or of each of several records.
+        y : array-like of shape (n_times,) or (n_times, 1), or list of them
+            The measured output of each record.
+
+        Returns
+        -------
+        self : WienerHammersteinModel
+            The fitted model.
+        """
+        U, Y = self._records(X, y)
+        bla = _LinearOutputError(order=self.order).fit(U, Y)
+        shortest = min(len(y_i) for y_i in Y)
+        if self.transient is None:
+            transient = min(_memory(bla.a_), shortest // 4)
+        elif self.transient >= shortest:
+            raise ValueError(
+                f"transient={self.transient} must be smaller than the shortest "
+                f"record ({shortest} samples)."
+            )
+        else:
+            transient = self.transient
+
+        total = sum(len(y_i) for y_i in Y)
+        share = min(1.0, self.scan_samples / total)
+        lengths = [
+            max(int(len(y_i) * share), min(len(y_i), 2 * transient + 1)) for y_i in Y
+        ]
+        U_scan = [u_i[:n] for u_i, n in zip(U, lengths, strict=True)]
+        Y_scan = [y_i[:n] for y_i, n in zip(Y, lengths, strict=True)]
+
+        scanned = []
+        for split in self._splits(bla, U[0].shape[1]):
+            filters = self._split_filters(bla, split, np.vstack(U_scan))
+            knots, coef, rmse = self._linear_fit(filters, U_scan, Y_scan, transient)
+            scanned.append((rmse, split, filters))
+        scanned.sort(key=lambda item: item[0])
+
+        refined = []
+        for scan_rmse, split, filters in scanned[: self.n_starts]:
+            knots, coef, _ = self._linear_fit(filters, U, Y, transient)
+            if knots is None:
+                continue
+            params, rmse, nfev, stopped = self._refine(
+                filters, knots, coef, U, Y, transient
+            )
+            refined.append(
+                {
+                    "poles_1": np.asarray(split[0]),
+                    "zeros_1": np.asarray(split[1]),
+                    "scan_rmse": scan_rmse,
+                    "rmse": rmse,
+                    "nfev": nfev,
+                    "_params": (*params, knots),
+                    "_stopped": stopped,
+                }
+            )
+        refined.sort(key=lambda item: item["rmse"])
+        if not refined or not np.isfinite(refined[0]["rmse"]):
+            raise ValueError(
+                "No split of the best linear approximation gave a finite fit; the "
+                "data may not suit a Wiener-Hammerstein model of "
+                f"order={self.order}."
+            )
+        best = refined[0]
+        if best["_stopped"] and self.max_nfev > 0:
+            warnings.warn(
+                f"WienerHammersteinModel's refinement stopped at max_nfev="
+                f"{self.max_nfev} before converging; raise max_nfev.",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+        (self.a1_, self.b1_, self.a2_, self.b2_, self.spline_coef_, self.knots_) = best[
+            "_params"
+        ]
+        self.splits_ = [
+            {k: v for k, v in item.items() if not k.startswith("_")} for item in refined
+        ]
+        self.n_splits_ = len(scanned)
+        self.bla_ = bla
+        self.rmse_ = best["rmse"]
+        self.transient_ = transient
+        self.memory_ = max(_memory(self.a1_), _memory(self.a2_))
+        return self
+
+    def simulate(
+        self,
+        inputs,
+        initial,
+        *,
+        init="measured",
+        n_samples=None,
+        random_state=None,
+        return_std=False,
+    ):
+        """Free run over a record, the measured initial window returned as measured.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs)
+            Inputs over the whole record, initial window included.
+        initial : array-like of shape (n_init,) or (n_init, 1)
+            Measured outputs of the record's first ``n_init`` samples; make
+            ``n_init`` at least ``memory_`` so that the filters' start at rest
+            has died out.
+        init : {"measured"}, default="measured"
+            Only ``"measured"``: the first ``n_init`` samples are the measured
+            ones.
+        n_samples : None
+            Must be None: the model has no noise model.
+        random_state : None
+            Unused (no noise model).
+        return_std : bool, default=False
+            Must be False: the model has no noise model.
+
+        Returns
+        -------
+        outputs : ndarray of shape (n_times, 1)
+            The simulated outputs, the first ``n_init`` the measured ones.
+        """
+        check_is_fitted(self)
+        if init != "measured" or n_samples is not None or return_std:
+            raise ValueError(
+                "WienerHammersteinModel simulates from the measured window only, "
+                f"without noise; got init={init!r}, n_samples={n_samples!r}, "
+                f"return_std={return_std!r}."
+            )
+        u = check_array(inputs, dtype=np.float64, ensure_2d=False, input_name="inputs")
+        u = u[:, None] if u.ndim == 1 else u
+        if u.shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"inputs has {u.shape[1]} columns; the model was fitted on "
+                f"{self.n_features_in_}."
+            )
+        y_init = np.ravel(
+            check_array(
+                initial, dtype=np.float64, ensure_2d=False, input_name="initial"
+            )
+        )
+        if len(y_init) > len(u):
+            raise ValueError(
+                f"initial holds {len(y_init)} samples, more than inputs' {len(u)}."
+            )
+        y = self._run(
+            self.a1_, self.b1_, self.a2_, self.b2_, self.spline_coef_, self.knots_, u
+        )
+        y[: len(y_init)] = y_init
+        return y[:, None]

@@ -14,6 +14,10 @@ from skhybrid.domain._friction import (
 )
 from skhybrid.domain._identifiability import check_identifiability
 from skhybrid.domain._linear import LinearStateSpaceModel
+
+# Internal, handed to skhybrid.experiments (the Wiener-Hammerstein physics of
+# old run folders); not in __all__.
+from skhybrid.domain._output_error import _LinearOutputError as _LinearOutputError
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step
 from skhybrid.domain._state_space import StateSpaceModel

@@ -14,8 +14,14 @@ from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._output_error import _LinearOutputError
+from skhybrid.simulation import (
+    check_trajectories,
+    fit_initial_states,
+    pack_trajectories,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import Interval, _fit_context, validate_data
+from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["WienerHammersteinModel"]
 
@@ -65,7 +71,9 @@ def _is_stable(a):
     return bool(np.all(np.abs(np.roots(a)) < 1))
 
 
-class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
+class WienerHammersteinModel(
+    TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
+):
     """Two linear filters around a static nonlinearity, started from the linear fit.
 
     The block structure of many electronic and mechanical systems: the inputs
@@ -98,11 +106,13 @@ class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
     which split is right only shows once the nonlinearity is fitted, and the
     best split before refinement need not be the best after it.
 
-    The filters start at rest at a record's first sample. The first
-    ``transient`` samples of each record (by default the BLA's memory: the
-    samples its slowest pole takes to decay by 1e-3) are left out of the fit,
-    and :meth:`simulate` returns the measured initial window in place of the
-    model's first samples: make that window at least ``memory_`` samples long.
+    In the fit the filters start at rest at a record's first sample, and the
+    first ``transient`` samples of each record (by default the BLA's memory:
+    the samples its slowest pole takes to decay by 1e-3) are left out.
+    :meth:`simulate` starts them at rest too (make the initial window at least
+    ``memory_`` samples long), or with ``init="least_squares"`` from the
+    initial states that match the measured window best; it returns the
+    measured window in place of the model's first samples.
 
     Parameters
     ----------
@@ -485,6 +495,64 @@ class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
         self.memory_ = max(_memory(self.a1_), _memory(self.a2_))
         return self
 
+    def _free_responses(self, n_times):
+        """Free responses ``(n_times, n1 + n2)`` of the two filters' initial states.
+
+        Column ``k < n1`` is the first filter's output from its ``k``-th initial
+        state alone (inputs zero), which adds to ``x``; the others are the
+        second filter's, which add to ``y``.
+        """
+        n1, n2 = len(self.a1_) - 1, len(self.a2_) - 1
+        zeros = np.zeros(n_times)
+        columns = [
+            lfilter([1.0], a, zeros, zi=np.eye(n)[k])[0]
+            for a, n in ((self.a1_, n1), (self.a2_, n2))
+            for k in range(n)
+        ]
+        return np.column_stack(columns) if columns else np.zeros((n_times, 0))
+
+    def _run_from(self, u, z):
+        """Free run over ``u`` from the filters' initial states ``z`` (rest: zeros)."""
+        n1 = len(self.a1_) - 1
+        free = self._free_responses(len(u)) if len(z) else None
+        with np.errstate(all="ignore"):
+            x = self._first_filter(self.a1_, self.b1_, u)
+            if free is not None:
+                x = x + free[:, :n1] @ z[:n1]
+            y = lfilter(
+                self.b2_,
+                self.a2_,
+                self._nonlinearity(x, self.knots_, self.spline_coef_),
+            )
+            if free is not None:
+                y = y + free[:, n1:] @ z[n1:]
+        return y
+
+    def _initial_states(self, U_list, Y_list):
+        """The filters' initial states whose run matches each measured window best."""
+        n_states = len(self.a1_) + len(self.a2_) - 2
+        if n_states == 0:
+            return np.zeros((len(U_list), 0))
+
+        def residuals(Z, index):
+            return np.stack(
+                [
+                    self._run_from(U_list[i][: len(Y_list[i])], z) - Y_list[i][:, 0]
+                    for z, i in zip(Z, index, strict=True)
+                ]
+            )
+
+        out = np.zeros((len(U_list), n_states))
+        # One batch per window length (the solver's residuals have one width).
+        for n_init in {len(y) for y in Y_list}:
+            idx = [i for i, y in enumerate(Y_list) if len(y) == n_init]
+            z, _ = fit_initial_states(
+                lambda Z, index, idx=idx: residuals(Z, [idx[i] for i in index]),
+                np.zeros((len(idx), n_states)),
+            )
+            out[idx] = z
+        return out
+
     def simulate(
         self,
         inputs,
@@ -495,19 +563,22 @@ class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
         random_state=None,
         return_std=False,
     ):
-        """Free run over a record, the measured initial window returned as measured.
+        """Free run over whole records, each measured initial window returned as is.
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
+        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
+n_times, n_inputs) or list of 2-D arrays
             Inputs over the whole record, initial window included.
-        initial : array-like of shape (n_init,) or (n_init, 1)
-            Measured outputs of the record's first ``n_init`` samples; make
-            ``n_init`` at least ``memory_`` so that the filters' start at rest
-            has died out.
-        init : {"measured"}, default="measured"
-            Only ``"measured"``: the first ``n_init`` samples are the measured
-            ones.
+        initial : array-like of shape (n_init, 1), (n_trajectories, n_init, 1) \
+or list of 2-D arrays
+            Measured outputs of each record's first ``n_init`` samples.
+        init : {"measured", "least_squares"}, default="measured"
+            ``"measured"``: both filters start at rest at the record's first
+            sample (make ``n_init`` at least ``memory_`` so that the start has
+            died out by the window's end). ``"least_squares"``: they start from
+            the initial states whose run through the window matches its
+            measured outputs best (:func:`~skhybrid.simulation.fit_initial_states`).
         n_samples : None
             Must be None: the model has no noise model.
         random_state : None
@@ -517,34 +588,38 @@ class WienerHammersteinModel(VersionedPickleMixin, BaseEstimator):
 
         Returns
         -------
-        outputs : ndarray of shape (n_times, 1)
-            The simulated outputs, the first ``n_init`` the measured ones.
+        outputs : ndarray or list of ndarray
+            Simulated outputs ``(n_times, 1)`` in the container form of
+            ``inputs``; each record's first ``n_init`` are the measured ones.
         """
         check_is_fitted(self)
-        if init != "measured" or n_samples is not None or return_std:
+        if not isinstance(init, str) or init not in ("measured", "least_squares"):
             raise ValueError(
-                "WienerHammersteinModel simulates from the measured window only, "
-                f"without noise; got init={init!r}, n_samples={n_samples!r}, "
-                f"return_std={return_std!r}."
+                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
             )
-        u = check_array(inputs, dtype=np.float64, ensure_2d=False, input_name="inputs")
-        u = u[:, None] if u.ndim == 1 else u
-        if u.shape[1] != self.n_features_in_:
+        if n_samples is not None or return_std:
             raise ValueError(
-                f"inputs has {u.shape[1]} columns; the model was fitted on "
+                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
+                f"model; this {type(self).__name__} has none."
+            )
+        U_list, Y_list, form = check_trajectories(inputs, initial)
+        if U_list[0].shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"inputs has {U_list[0].shape[1]} columns; the model was fitted on "
                 f"{self.n_features_in_}."
             )
-        y_init = np.ravel(
-            check_array(
-                initial, dtype=np.float64, ensure_2d=False, input_name="initial"
-            )
-        )
-        if len(y_init) > len(u):
+        if Y_list[0].shape[1] != 1:
             raise ValueError(
-                f"initial holds {len(y_init)} samples, more than inputs' {len(u)}."
+                f"initial has {Y_list[0].shape[1]} columns; the model has one output."
             )
-        y = self._run(
-            self.a1_, self.b1_, self.a2_, self.b2_, self.spline_coef_, self.knots_, u
-        )
-        y[: len(y_init)] = y_init
-        return y[:, None]
+        n_states = len(self.a1_) + len(self.a2_) - 2
+        if init == "least_squares":
+            Z = self._initial_states(U_list, Y_list)
+        else:
+            Z = np.zeros((len(U_list), n_states))
+        lengths = np.array([len(u) for u in U_list])
+        out = np.zeros((len(U_list), lengths.max(), 1))
+        for i, (u, y0) in enumerate(zip(U_list, Y_list, strict=True)):
+            out[i, : len(u), 0] = self._run_from(u, Z[i])
+            out[i, : len(y0)] = y0
+        return pack_trajectories(out, lengths, form)

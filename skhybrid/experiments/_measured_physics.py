@@ -25,11 +25,13 @@ import itertools
 
 import numpy as np
 
-from skhybrid.domain import StateSpaceModel, asymmetric_friction
-
-# The best linear approximation lives in skhybrid.domain; run folders pickled
-# before it moved there load it from here.
-from skhybrid.domain._output_error import _LinearOutputError  # noqa: F401
+# _LinearOutputError (the best linear approximation) lives in skhybrid.domain;
+# run folders pickled before it moved there load it from here.
+from skhybrid.domain import (
+    StateSpaceModel,
+    _LinearOutputError,  # noqa: F401
+    asymmetric_friction,
+)
 
 __all__ = [
     "duffing_foh",

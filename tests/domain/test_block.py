@@ -30,7 +30,7 @@ def _record(n, seed, noise=0.0):
 
 
 def _rmse(model, u, y, n_init=30):
-    sim = model.simulate(u, y[:n_init])[:, 0]
+    sim = model.simulate(u, y[:n_init, None])[:, 0]
     return float(np.sqrt(np.mean((sim[n_init:] - y[n_init:]) ** 2)))
 
 
@@ -81,11 +81,11 @@ def test_several_records_and_a_noisy_output():
 
 def test_simulate_keeps_the_measured_window_and_pickles(fitted):
     u, y = _record(500, 2)
-    sim = fitted.simulate(u, y[:40])
+    sim = fitted.simulate(u, y[:40, None])
     assert sim.shape == (500, 1)
     assert_allclose(sim[:40, 0], y[:40])
     again = pickle.loads(pickle.dumps(fitted))
-    assert_allclose(again.simulate(u, y[:40]), sim)
+    assert_allclose(again.simulate(u, y[:40, None]), sim)
     assert fitted.memory_ > 0 and fitted.transient_ > 0
 
 
@@ -116,7 +116,36 @@ def test_bad_input_is_named():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         model.fit(u, y)
-    with pytest.raises(ValueError, match="measured window only"):
-        model.simulate(u, y[:10], return_std=True)
+    with pytest.raises(ValueError, match="need a noise model"):
+        model.simulate(u, y[:10, None], return_std=True)
+    with pytest.raises(ValueError, match="init must be one of"):
+        model.simulate(u, y[:10, None], init="rest")
     with pytest.raises(ValueError, match="2 columns"):
-        model.simulate(np.hstack([u, u]), y[:10])
+        model.simulate(np.hstack([u, u]), y[:10, None])
+    with pytest.raises(ValueError, match="one output"):
+        model.simulate(u, np.column_stack([y[:10], y[:10]]))
+
+
+def test_a_short_window_is_better_started_by_least_squares(fitted):
+    # Ten measured samples, a third of the filters' memory: a start at rest
+    # leaves a transient that the least-squares start removes.
+    u, y = _record(600, 3)
+    start = 200  # the record starts mid-motion
+    u, y = u[start:], y[start:]
+    errors = {}
+    for init in ("measured", "least_squares"):
+        sim = fitted.simulate(u, y[:10, None], init=init)[:, 0]
+        errors[init] = np.sqrt(np.mean((sim[10:40] - y[10:40]) ** 2))
+    assert fitted.memory_ > 20
+    assert errors["least_squares"] < errors["measured"] / 2
+
+
+def test_simulate_takes_every_container(fitted):
+    records = [_record(300, seed) for seed in (4, 5)]
+    U = np.stack([u for u, _ in records])
+    Y0 = np.stack([y[:20, None] for _, y in records])
+    batch = fitted.simulate(U, Y0)
+    assert batch.shape == (2, 300, 1)
+    as_list = fitted.simulate(list(U), list(Y0))
+    assert_allclose(as_list[1], batch[1])
+    assert_allclose(fitted.simulate(U[0], Y0[0]), batch[0])

@@ -81,6 +81,9 @@ def _fit(est):
     if name == "StateSpaceHybridRegressor":
         est.fit_simulation(U_seq, X_seq)
         return est, est.n_init, N_STATES, N_INPUTS
+    if name == "WienerHammersteinModel":  # one output, fitted on whole records
+        est = clone(est).fit(list(U_seq), list(X_seq[:, :, 0]))
+        return est, 1, 1, N_INPUTS
     n_steps = est.get_params(deep=False).get("n_steps", 1)
     X, y = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(list(X_seq), list(U_seq))
     return est.fit(X, y), n_steps, N_STATES, N_INPUTS

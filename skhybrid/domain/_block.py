@@ -138,7 +138,7 @@ class WienerHammersteinModel(
     ----------
     a1_, a2_ : ndarray of shape (n_poles_1 + 1,) and (n_poles_2 + 1,)
         Denominators ``[1, ...]`` of ``G1`` and ``G2``.
-    b1_ : ndarray of shape (n_features_in_, n_zeros_1 + 1)
+    b1_ : ndarray of shape (n_inputs, n_zeros_1 + 1)
         Numerators of ``G1``, one row per input.
     b2_ : ndarray of shape (n_zeros_2 + 1,)
         Numerator of ``G2``.

@@ -126,7 +126,7 @@ class MeasuredSystem:
             self.title = spec.title or spec.name
             self.unit = spec.unit
             self.scale = float(spec.scale)
-            self.hybrids = spec.hybrids is not None
+            self.hybrids = spec.has_hybrids()
 
     @classmethod
     def from_spec(cls, spec):

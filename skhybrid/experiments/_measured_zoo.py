@@ -25,6 +25,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.linear_model import Ridge
 
+from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.experiments._measured_physics import fit_segments
 from skhybrid.experiments._progress import attach_epoch_logger
@@ -327,6 +328,12 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
     from skhybrid.hybrid import StateSpaceHybridRegressor
 
     system, physics = ctx.system, deps["physics"]
+    if not isinstance(physics.estimator, StateSpaceModel):
+        raise TypeError(
+            "The state-space hybrid needs a StateSpaceModel physics (it trains "
+            "through its equations); the spec's physics(U, Y, dt) returned a "
+            f"{type(physics.estimator).__name__}. Set the spec's hybrids=None."
+        )
     U, Y = _records(_model_inputs(system, U), Y, system.hybrid_records)
     start_physics = clone(physics.estimator).set_params(
         params=dict(physics.estimator.params_)

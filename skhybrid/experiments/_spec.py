@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from sklearn.base import clone
 
+from skhybrid.domain import StateSpaceModel
+
 __all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
 
 #: The default candidate family's initial horizon of the state-space hybrid
@@ -253,7 +255,9 @@ class SystemSpec:
         The state-space hybrids to try, ``{label: StateSpaceHybridRegressor
         parameters}``; ``"auto"``: horizons ``T`` of 50 and 200 samples (below
         half the shortest fitting part), a (64, 64) correction of every state
-        trained with :func:`hybrid_settings`; None: no state-space hybrid.
+        trained with :func:`hybrid_settings`, where the physics is a
+        :class:`~skhybrid.domain.StateSpaceModel` (none for another physics);
+        None: no state-space hybrid.
     hybrid_records : int, default=4
         Pieces the hybrid's training records are cut into (sub-sequences are
         drawn within pieces).
@@ -384,6 +388,17 @@ class SystemSpec:
             raise TypeError(
                 "hybrids must be 'auto', None or a dict of label to settings; "
                 f"got hybrids={self.hybrids!r}."
+            )
+        if (
+            isinstance(self.hybrids, dict)
+            and self.hybrids
+            and not is_factory
+            and not isinstance(physics, StateSpaceModel)
+        ):
+            raise ValueError(
+                "hybrids needs a StateSpaceModel physics (the state-space hybrid "
+                f"trains through its equations); got a {type(physics).__name__}. "
+                "Set hybrids=None, or 'auto', which tries none for this physics."
             )
         if self.tests is not None and not (
             callable(self.tests) or isinstance(self.tests, dict)
@@ -534,6 +549,25 @@ class SystemSpec:
         lengths = [shortest // 4, shortest // 16]
         return (None, *[s for s in lengths if s > 10 * self.n_init])
 
+    def has_hybrids(self):
+        """Whether the family holds state-space hybrids (read from the spec alone).
+
+        ``"auto"`` tries them only where the physics is a
+        :class:`~skhybrid.domain.StateSpaceModel` (or a callable, which returns
+        one): the hybrid trains through its equations.
+
+        Returns
+        -------
+        has_hybrids : bool
+        """
+        if not self.hybrids:
+            return False
+        if self.hybrids != "auto":
+            return True
+        physics = self.physics
+        is_factory = callable(physics) and not hasattr(physics, "get_params")
+        return is_factory or isinstance(physics, StateSpaceModel)
+
     def hybrid_candidates(self, fit_lengths):
         """The state-space hybrids to try, ``{label: parameters}``.
 
@@ -547,7 +581,7 @@ class SystemSpec:
         candidates : dict of str to dict
             Empty where ``hybrids`` is None.
         """
-        if self.hybrids is None:
+        if not self.has_hybrids():
             return {}
         if self.hybrids != "auto":
             return dict(self.hybrids)

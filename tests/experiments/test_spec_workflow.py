@@ -269,6 +269,18 @@ def test_the_default_family_scales_with_the_records(machine):
     assert machine.make_spec(hybrids=None).hybrid_candidates([4000]) == {}
 
 
+def test_a_physics_without_equations_gets_no_state_space_hybrid(machine):
+    from skhybrid.domain import WienerHammersteinModel
+
+    block = WienerHammersteinModel(order=2)
+    # "auto" tries none: the hybrid trains through a StateSpaceModel's equations.
+    assert (
+        machine.make_spec(physics=block, hybrids="auto").hybrid_candidates([4000]) == {}
+    )
+    with pytest.raises(ValueError, match="hybrids needs a StateSpaceModel physics"):
+        machine.make_spec(physics=block)  # the machine's explicit hybrid
+
+
 def test_system_spec_is_public_and_documented():
     from skhybrid import experiments
 

@@ -559,6 +559,8 @@ class SystemSpec:
         Returns
         -------
         has_hybrids : bool
+            False where ``hybrids`` is None or empty, or ``"auto"`` with a
+            physics that is not a ``StateSpaceModel``.
         """
         if not self.hybrids:
             return False

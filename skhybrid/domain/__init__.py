@@ -13,6 +13,7 @@ from skhybrid.domain._friction import (
     stribeck_friction,
 )
 from skhybrid.domain._identifiability import check_identifiability
+from skhybrid.domain._inputs import band_limited_inputs
 from skhybrid.domain._linear import LinearStateSpaceModel
 
 # Internal, handed to skhybrid.experiments (the Wiener-Hammerstein physics of
@@ -30,6 +31,7 @@ __all__ = [
     "StateSpaceModel",
     "WienerHammersteinModel",
     "asymmetric_friction",
+    "band_limited_inputs",
     "check_identifiability",
     "coulomb_viscous_friction",
     "pendulum_step",

@@ -22,7 +22,7 @@ from skhybrid.datasets import (
     load_silverbox,
     load_wiener_hammerstein,
 )
-from skhybrid.domain import WienerHammersteinModel
+from skhybrid.domain import WienerHammersteinModel, band_limited_inputs
 from skhybrid.experiments._measured import MeasuredSystem
 from skhybrid.experiments._measured_physics import (
     CED_STARTS,
@@ -31,7 +31,6 @@ from skhybrid.experiments._measured_physics import (
     friction_damper_physics,
     silverbox_physics,
     tanks_physics,
-    with_next_input,
 )
 from skhybrid.experiments._spec import SystemSpec, hybrid_settings
 
@@ -232,7 +231,7 @@ class Silverbox(_Benchmark):
             [(train.u[:n], train.y[:n])],
             {name: name for name in names},
             physics=_silverbox_start,
-            physics_inputs=with_next_input,
+            physics_inputs=band_limited_inputs,
             segments=(512,),
             hybrids=hybrids,
             hybrid_records=6,

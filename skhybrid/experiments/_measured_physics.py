@@ -11,9 +11,12 @@ state-space hybrid (:class:`~skhybrid.hybrid.StateSpaceHybridRegressor`) trains
 through them in torch.
 
 The Silverbox's input is band-limited, not held between samples: its Duffing
-equation is integrated with the input interpolated linearly between ``u(t)``
-and ``u(t + 1)`` (first-order hold), so its model input holds both
-(:func:`with_next_input`). Its fit starts from a one-step (equation-error)
+equation is integrated with the input interpolated as a band-limited signal,
+at the start, midpoint and end of each step
+(:func:`skhybrid.domain.band_limited_inputs`); until issue 24 it was
+interpolated linearly between ``u(t)`` and ``u(t + 1)`` (first-order hold,
+:func:`with_next_input`), which left the physics 0.935 mV from the validation
+tail, against 0.281 now. Its fit starts from a one-step (equation-error)
 regression on finite differences and refines by the simulation error over
 segments of the record (multiple shooting: every segment's initial state is
 estimated from its own first samples), which keeps a lightly damped
@@ -31,9 +34,11 @@ from skhybrid.domain import (
     StateSpaceModel,
     _LinearOutputError,  # noqa: F401
     asymmetric_friction,
+    band_limited_inputs,
 )
 
 __all__ = [
+    "duffing_band_limited",
     "duffing_foh",
     "emps_axis",
     "emps_physics",
@@ -215,18 +220,8 @@ def _duffing_rhs(y, v, u, g, d, k1, k2, k3, c):
     return v, g * u + c - d * v - k1 * y - k2 * y**2 - k3 * y**3
 
 
-def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
-    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3`` over one sample.
-
-    Classical Runge-Kutta over ``dt`` with the input interpolated linearly from
-    ``u[:, 0]`` (at the sample) to ``u[:, 1]`` (at the next): a first-order
-    hold. The quadratic term ``k2`` and the constant ``c`` absorb the circuit's
-    asymmetry and offsets.
-    """
+def _duffing_rk4(x, u0, um, u1, dt, p, xp):
     y, v = x[:, 0], x[:, 1]
-    u0, u1 = u[:, 0], u[:, 1]
-    um = 0.5 * (u0 + u1)
-    p = (g, d, k1, k2, k3, c)
     a1, b1 = _duffing_rhs(y, v, u0, *p)
     a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, um, *p)
     a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, um, *p)
@@ -238,6 +233,31 @@ def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
         ],
         axis=1,
     )
+
+
+def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3`` over one sample.
+
+    Classical Runge-Kutta over ``dt`` with the input interpolated linearly from
+    ``u[:, 0]`` (at the sample) to ``u[:, 1]`` (at the next): a first-order
+    hold. The quadratic term ``k2`` and the constant ``c`` absorb the circuit's
+    asymmetry and offsets. The Silverbox's physics until issue 24 (kept for the
+    run folders that pickled it); :func:`duffing_band_limited` replaced it.
+    """
+    u0, u1 = u[:, 0], u[:, 1]
+    return _duffing_rk4(x, u0, 0.5 * (u0 + u1), u1, dt, (g, d, k1, k2, k3, c), xp)
+
+
+def duffing_band_limited(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """The Duffing equation of :func:`duffing_foh`, fed the input between samples.
+
+    Classical Runge-Kutta over ``dt`` reading the input at the step's start,
+    midpoint and end, ``u[:, 0]``, ``u[:, 1]`` and ``u[:, 2]``: the columns of
+    :func:`skhybrid.domain.band_limited_inputs`, which interpolates the
+    band-limited excitation instead of holding it.
+    """
+    p = (g, d, k1, k2, k3, c)
+    return _duffing_rk4(x, u[:, 0], u[:, 1], u[:, 2], dt, p, xp)
 
 
 def _duffing_equation_error(u, y, dt):
@@ -255,7 +275,15 @@ def _duffing_equation_error(u, y, dt):
     return dict(zip(("g", "c", "d", "k1", "k2", "k3"), theta.tolist(), strict=True))
 
 
-def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30):
+#: The Silverbox physics' step function for each way of reading the input
+#: between samples, with the function that makes its inputs from a record's.
+INTERSAMPLE = {
+    "band-limited": (duffing_band_limited, band_limited_inputs),
+    "first-order hold": (duffing_foh, with_next_input),
+}
+
+
+def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30, intersample="band-limited"):
     """The Silverbox's Duffing :class:`StateSpaceModel`, started one step ahead.
 
     Parameters
@@ -268,17 +296,27 @@ def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30):
         Samples from which a record's initial derivative is estimated.
     max_nfev : int, default=30
         Most residual evaluations of the simulation-error refinement.
+    intersample : {"band-limited", "first-order hold"}, default="band-limited"
+        The input between samples: interpolated as a band-limited signal
+        (:func:`duffing_band_limited`; the model's inputs are
+        :func:`~skhybrid.domain.band_limited_inputs` columns) or linearly
+        (:func:`duffing_foh`, inputs :func:`with_next_input`). Chosen on the
+        validation tail (issue 24): 0.281 mV against 0.935.
 
     Returns
     -------
     model : StateSpaceModel
-        Unfitted, its ``params`` the one-step regression's; inputs are
-        :func:`with_next_input` columns.
+        Unfitted, its ``params`` the one-step regression's; its inputs are
+        the columns ``INTERSAMPLE[intersample][1]`` makes of a record's.
     """
+    if intersample not in INTERSAMPLE:
+        raise ValueError(
+            f"intersample must be one of {sorted(INTERSAMPLE)}; got {intersample!r}."
+        )
     params = _duffing_equation_error(u, y, dt)
     params["dt"] = float(dt)
     return StateSpaceModel(
-        duffing_foh,
+        INTERSAMPLE[intersample][0],
         params,
         state_names=["output", "derivative (latent)"],
         observed=["output"],

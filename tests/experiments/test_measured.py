@@ -1,5 +1,6 @@
 """Measured systems: grey-box physics, the official protocol, and ``skhybrid run``."""
 
+import functools
 import json
 
 import numpy as np
@@ -11,6 +12,7 @@ from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.experiments._benchmarks import MEASURED_SYSTEMS, PUBLISHED
 from skhybrid.experiments._measured import run_measured
 from skhybrid.experiments._measured_physics import (
+    INTERSAMPLE,
     emps_physics,
     fit_segments,
     silverbox_physics,
@@ -125,24 +127,46 @@ def test_tanks_overflow_caps_both_levels():
     assert tanks_physics(4.0).n_init == 50
 
 
-def test_silverbox_duffing_is_found_one_step_ahead_then_by_segments():
+@pytest.mark.parametrize("intersample", sorted(INTERSAMPLE))
+def test_silverbox_duffing_is_found_one_step_ahead_then_by_segments(intersample):
     """The equation-error start and the segment fit recover a known Duffing."""
     dt = 2**14 / 1e7
     rng = np.random.default_rng(1)
     u = np.convolve(rng.standard_normal(3000), np.ones(4) / 4, mode="same")[:, None]
     u = 0.2 * u
     truth = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6.4e3, "k3": 7.5e5, "c": -1e3}
-    exact = silverbox_physics(dt, u, np.zeros((3000, 1))).set_params(
+    make = functools.partial(silverbox_physics, intersample=intersample)
+    exact = make(dt, u, np.zeros((3000, 1))).set_params(
         params={**truth, "dt": dt}, fixed=(*truth, "dt")
     )
-    v = with_next_input(u)
+    v = INTERSAMPLE[intersample][1](u)
     y = exact.fit_simulation(v, np.zeros((3000, 1))).simulate_from_state(v, [0, 0])
-    model = silverbox_physics(dt, u, y, max_nfev=30)
+    model = make(dt, u, y, max_nfev=30)
     start = model.params
     assert abs(start["k1"] / truth["k1"] - 1) < 0.2
     fit_segments(model, v, y, 500)
     assert_allclose([model.params_[k] for k in truth], list(truth.values()), rtol=1e-3)
     assert model.rmse_ < 1e-6 * np.ptp(y)
+
+
+def test_silverbox_physics_reads_the_input_between_samples_as_told():
+    """Fed the same samples, the two physics differ only between the samples."""
+    dt = 2**14 / 1e7
+    u = 0.05 * np.sin(2 * np.pi * 0.13 * np.arange(400))[:, None]
+    y = np.zeros((400, 1))
+    params = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": 0.0, "k3": 0.0, "c": 0.0}
+    runs = {}
+    for mode, (step, inputs) in INTERSAMPLE.items():
+        model = silverbox_physics(dt, u, y, intersample=mode)
+        assert model.rhs is step
+        model.set_params(params={**params, "dt": dt}, fixed=(*params, "dt"))
+        model.fit_simulation(inputs(u), y)
+        runs[mode] = np.ravel(model.simulate_from_state(inputs(u), [0, 0]))
+    # A sine of 0.13 cycles a sample is far from linear between samples: the
+    # first-order hold feeds the circuit a smaller input than it saw.
+    assert np.ptp(runs["band-limited"]) > 1.02 * np.ptp(runs["first-order hold"])
+    with pytest.raises(ValueError, match="intersample must be one of"):
+        silverbox_physics(dt, u, y, intersample="zero-order hold")
 
 
 def test_segments_and_records():

@@ -20,7 +20,9 @@ def band_limited_inputs(inputs, n_points=3):
     (:func:`scipy.signal.resample_poly`, its ends padded along a line), keeps
     the samples themselves and returns, for every sample ``t``, the input at
     ``t, t + 1/(n_points - 1), ..., t + 1``, ready for a Runge-Kutta step
-    (``n_points=3``: the step's start, midpoint and end).
+    (``n_points=3``: the step's start, midpoint and end). Between the samples
+    the values carry the filter's passband ripple: a constant input comes back
+    within 5e-4 of itself.
 
     The interpolation reads samples on both sides of ``t``: it needs the
     whole input record, which a simulation is given anyway. Use it as a
@@ -89,7 +91,7 @@ def band_limited_inputs(inputs, n_points=3):
     if len(bad):
         t, j = bad[0]
         raise ValueError(
-            f"inputs must be finite; input {j} at time step {t} is {u[t, j]!r}."
+            f"inputs must be finite; input {j} at time step {t} is {float(u[t, j])}."
         )
     n, up = len(u), n_points - 1
     # One more sample, continuing the last step along a line, gives the last

@@ -329,8 +329,9 @@ BUILTIN_NOTES = {
     ),
     "silverbox": (
         "Own candidates: 512-sample segments (a lightly damped oscillator's "
-        "long free runs have local minima), inputs held as [u(t), u(t+1)] "
-        "(first-order hold) and a hybrid that corrects the latent derivative, "
+        "long free runs have local minima), the band-limited input read at "
+        "the start, midpoint and end of each sample (band_limited_inputs) and "
+        "a hybrid that corrects the latent derivative, "
         "trained as the hybrid's defaults do; chosen on the validation tail."
     ),
     "coupled-electric-drives": (

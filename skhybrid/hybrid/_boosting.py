@@ -33,6 +33,10 @@ __all__ = ["HybridBoostingRegressor", "StageWhiteness"]
 
 STAGE_INPUTS = ("window", "window+prediction", "window+prediction+residuals")
 _RESERVED_NAMES = ("stage_names", "total")
+#: A stage must lower the validation RMSE by more than this share of it to count
+#: as helpful: a stage that predicts next to nothing (a ridge of huge alpha) moves
+#: the RMSE only by rounding, up or down with the library versions.
+_ROUNDING = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,7 +119,9 @@ class HybridBoostingRegressor(
     on the rows before it, and ``stage_scores_`` holds the validation RMSE after
     each stage. A neural stage on top of an already correct physics model can make
     things worse; with ``drop_unhelpful_stages=True`` a stage whose validation RMSE
-    is not lower than before it is dropped (the first stage is always kept), and
+    is not lower than before it is dropped (lower by more than a relative 1e-9,
+    so that a stage that adds only rounding is dropped; the first stage is
+    always kept), and
     later stages are fitted without it. Off by default, so that the stages you ask
     for are the stages you get; read ``stage_scores_`` either way.
 
@@ -162,7 +168,8 @@ class HybridBoostingRegressor(
         Fraction of the rows, taken from the end, held out to score the stages.
         ``None`` fits on every row and scores on the training rows.
     drop_unhelpful_stages : bool, default=False
-        Drop a stage whose validation RMSE is not lower than the RMSE before it.
+        Drop a stage whose validation RMSE is not lower than the RMSE before it
+        (by more than a relative ``1e-9``: rounding is no gain).
     noise_model : {"gaussian", "ar"} or None, default=None
         Stochastic model of the final residual.
     noise_max_lag : int, default=10
@@ -671,7 +678,8 @@ class HybridBoostingRegressor(
             new_pred = preds[-1] + parts[-1]
             score = _rmse(Y[val] - new_pred[val])
             scores.append(score)
-            if self.drop_unhelpful_stages and self.stages_ and not score < previous:
+            helpful = score < previous * (1.0 - _ROUNDING)
+            if self.drop_unhelpful_stages and self.stages_ and not helpful:
                 self.dropped_stages_.append(name)
                 continue
             previous = score

@@ -25,10 +25,12 @@ def band_limited_inputs(inputs, n_points=3):
     within 5e-4 of itself.
 
     The interpolation reads samples on both sides of ``t``: it needs the
-    whole input record, which a simulation is given anyway. Use it as a
+    whole input record, which a simulation is given anyway. Hand its columns
+    to a :class:`StateSpaceModel` with ``input_points=n_points``, whose
+    integrator then reads each input at each stage's time (or to a
+    ``time="discrete"`` step that reads them itself), directly or as a
     :class:`~skhybrid.experiments.SystemSpec`'s ``physics_inputs`` (with
-    :func:`functools.partial` for another ``n_points``), or on the inputs
-    passed to a :class:`StateSpaceModel` of ``time="discrete"``.
+    :func:`functools.partial` for another ``n_points``).
 
     Parameters
     ----------

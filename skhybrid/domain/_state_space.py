@@ -51,7 +51,10 @@ class StateSpaceModel(DomainModel):
     ``(n, n_states)`` for ``time="continuous"`` or the next state ``x(t+1)`` for
     ``time="discrete"``. Continuous-time equations are integrated over each sample
     period ``dt`` with the input held constant (zero-order hold), by ``n_substeps``
-    Euler or classical Runge-Kutta steps, or by :func:`scipy.integrate.solve_ivp`.
+    Euler or classical Runge-Kutta steps, or by :func:`scipy.integrate.solve_ivp`;
+    with ``input_points=k`` the inputs hold each input at ``k`` times of the
+    period (:func:`~skhybrid.domain.band_limited_inputs`) and each stage reads
+    the input at its own time.
 
     Only the ``observed`` states are measured; the others are latent. Wherever a
     record (a window of history, or the initialisation window of a simulation)
@@ -110,6 +113,18 @@ class StateSpaceModel(DomainModel):
         :func:`scipy.integrate.solve_ivp` (NumPy only; ``solver_options``).
     n_substeps : int, default=1
         Integration steps per sample period (``"euler"`` and ``"rk4"``).
+    input_points : int, default=1
+        Values of each input that a sample of the inputs holds, at equally
+        spaced times from the sample to the next (continuous time only). 1:
+        the input is held over the period (zero-order hold). ``k >= 2``: the
+        inputs are the columns of
+        :func:`~skhybrid.domain.band_limited_inputs` ``(u, n_points=k)``
+        (input ``j`` at time ``t + i / (k - 1)`` in column ``j * k + i``), and
+        the integrator hands ``rhs`` each input at its stage's time,
+        interpolated linearly between the points (exact where the stages fall
+        on them: ``k = 2 n_substeps + 1`` for ``"rk4"``, ``n_substeps + 1`` for
+        ``"euler"``). For an input that moves between its samples (a
+        multisine, filtered noise), which a hold misrepresents.
     solver_options : dict or None, default=None
         Keyword arguments of :func:`scipy.integrate.solve_ivp`; ``None`` uses
         ``method="DOP853", rtol=1e-10, atol=1e-12``.
@@ -237,6 +252,7 @@ default=None
         "dt": [Interval(Real, 0, None, closed="neither"), None],
         "method": [StrOptions({"rk4", "euler", "solve_ivp"})],
         "n_substeps": [Interval(Integral, 1, None, closed="left")],
+        "input_points": [Interval(Integral, 1, None, closed="left")],
         "solver_options": [dict, None],
         "initial_state": ["array-like", callable, None],
         "n_init": [Interval(Integral, 1, None, closed="left")],
@@ -258,6 +274,7 @@ default=None
         dt=None,
         method="rk4",
         n_substeps=1,
+        input_points=1,
         solver_options=None,
         initial_state=None,
         n_init=20,
@@ -297,6 +314,7 @@ default=None
         self.dt = dt
         self.method = method
         self.n_substeps = n_substeps
+        self.input_points = input_points
         self.solver_options = solver_options
         self.initial_state = initial_state
         self.n_init = n_init
@@ -366,6 +384,12 @@ default=None
             raise ValueError(
                 "dt=None, but time='continuous' needs the sample period: pass "
                 "dt=data.dt (every loader of skhybrid.datasets returns it)."
+            )
+        if self.time == "discrete" and getattr(self, "input_points", 1) != 1:
+            raise ValueError(
+                f"input_points={self.input_points} is for time='continuous', whose "
+                "integrator reads the input between samples; a time='discrete' rhs "
+                "reads the columns of its inputs itself: leave input_points=1."
             )
         if self.initial_state is None:
             guess = np.zeros(n_states)
@@ -487,25 +511,60 @@ default=None
         return h
 
     def _step(self, x, u, f):
-        """State one sample period after ``x`` under the held input ``u``."""
+        """State one sample period after ``x`` under the inputs ``u``.
+
+        ``u`` is held over the period, or, with ``input_points > 1``, read at
+        each stage's time (:meth:`_input_at`).
+        """
         if self.time == "discrete":
             return f(x, u)
         dt = float(self.dt)
+        at = self._input_at(u)
         if self.method == "solve_ivp":
-            return self._step_ivp(x, u, f, dt)
-        h = dt / self.n_substeps
-        for _ in range(self.n_substeps):
-            k1 = f(x, u)
+            return self._step_ivp(x, at, f, dt)
+        n = self.n_substeps
+        h = dt / n
+        for s in range(n):
+            k1 = f(x, at(s / n))
             if self.method == "euler":
                 x = x + h * k1
                 continue
-            k2 = f(x + 0.5 * h * k1, u)
-            k3 = f(x + 0.5 * h * k2, u)
-            k4 = f(x + h * k3, u)
+            middle = at((s + 0.5) / n)
+            k2 = f(x + 0.5 * h * k1, middle)
+            k3 = f(x + 0.5 * h * k2, middle)
+            k4 = f(x + h * k3, at((s + 1) / n))
             x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         return x
 
-    def _step_ivp(self, x, u, f, dt):
+    def _input_at(self, u):
+        """``at(tau)``: the inputs at the fraction ``tau`` of the sample period.
+
+        With ``input_points=1`` the held ``u`` itself; otherwise each input's
+        points (columns ``j * k + i``, :func:`band_limited_inputs`' layout)
+        interpolated linearly at ``tau``.
+        """
+        k = int(getattr(self, "input_points", 1))
+        if k == 1:
+            return lambda tau: u
+        width = u.shape[1]
+        if width % k:
+            raise ValueError(
+                f"input_points={k} needs inputs of a multiple of {k} columns (each "
+                f"input at {k} times a sample, as band_limited_inputs(u, "
+                f"n_points={k}) makes them); got {width} column(s)."
+            )
+
+        def at(tau):
+            position = tau * (k - 1)
+            i = min(int(position), k - 2)
+            w = position - i
+            if w == 0.0:
+                return u[:, i::k]
+            return (1.0 - w) * u[:, i::k] + w * u[:, i + 1 :: k]
+
+        return at
+
+    def _step_ivp(self, x, at, f, dt):
         x = np.asarray(x, dtype=float)
         if not np.all(np.isfinite(x)):
             return np.full_like(x, np.nan)
@@ -513,8 +572,8 @@ default=None
         options = {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12}
         options.update(self.solver_options or {})
 
-        def fun(_, z):
-            return np.asarray(f(z.reshape(shape), u), dtype=float).ravel()
+        def fun(t, z):
+            return np.asarray(f(z.reshape(shape), at(t / dt)), dtype=float).ravel()
 
         sol = solve_ivp(fun, (0.0, dt), x.ravel(), **options)
         if not sol.success:
@@ -586,9 +645,12 @@ default=None
         f = self._rhs_fn(params, xp)
         if correction is not None:
             rhs = f
+            # The correction reads the sample's inputs as given (every point of
+            # them with input_points > 1), as the network was sized for them.
+            points = int(getattr(self, "input_points", 1)) > 1
 
             def f(z, v):
-                return rhs(z, v) + correction(z, v)
+                return rhs(z, v) + correction(z, u if points else v)
 
         return self._step(x, u, f)
 

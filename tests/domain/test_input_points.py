@@ -1,0 +1,151 @@
+"""StateSpaceModel(input_points=k): the integrator reads the input between samples."""
+
+import numpy as np
+import pytest
+import torch
+from numpy.testing import assert_allclose, assert_array_equal
+
+from skhybrid.domain import StateSpaceModel, band_limited_inputs
+from skhybrid.experiments._measured_physics import (
+    _duffing_rhs,
+    silverbox_physics,
+    with_next_input,
+)
+
+DT = 2**14 / 1e7
+PARAMS = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6e3, "k3": 7e5, "c": -1e3}
+
+
+def duffing(x, u, *, xp, g, d, k1, k2, k3, c):
+    dy, dv = _duffing_rhs(x[:, 0], x[:, 1], u[:, 0], g, d, k1, k2, k3, c)
+    return xp.stack([dy, dv], axis=1)
+
+
+def _force(n=500):
+    return 0.05 * np.sin(2 * np.pi * 0.13 * np.arange(n))[:, None]
+
+
+def _model(**kwargs):
+    return StateSpaceModel(
+        duffing,
+        PARAMS,
+        state_names=["y", "v"],
+        observed=["y"],
+        dt=DT,
+        fixed=tuple(PARAMS),
+        **kwargs,
+    )
+
+
+def _run(model, inputs):
+    model.fit_simulation(inputs, np.zeros((len(inputs), 1)))
+    return model.simulate_from_state(inputs, [0.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    "intersample, points, transform",
+    [
+        ("band-limited", 3, band_limited_inputs),
+        ("first-order hold", 2, with_next_input),
+    ],
+)
+def test_points_give_the_hand_written_step(intersample, points, transform):
+    """A continuous Duffing reading 3 (2) points a sample is the Silverbox's
+    hand-written band-limited (first-order-hold) RK4 step, to the last bit."""
+    u = _force()
+    inputs = transform(u)
+    step = silverbox_physics(DT, u, np.zeros_like(u), intersample=intersample)
+    step.set_params(params={**PARAMS, "dt": DT}, fixed=(*PARAMS, "dt"))
+    model = _model(input_points=points)
+    assert_array_equal(_run(model, inputs), _run(step, inputs))
+    # The torch step, which the state-space hybrid trains through, too.
+    x = torch.zeros(4, 2, dtype=torch.float64)
+    v = torch.as_tensor(inputs[:4])
+    values = {k: torch.tensor(p, dtype=torch.float64) for k, p in PARAMS.items()}
+    assert torch.equal(model.step(x, v, values), step.step(x, v, {**values, "dt": DT}))
+
+
+def test_stages_between_points_converge_on_the_adaptive_solver():
+    """Finer RK4 steps over 5 points agree with solve_ivp reading the same
+    points; the held input is another system altogether."""
+    u = _force()
+    runs = {
+        (method, n_sub, k): _run(
+            _model(method=method, n_substeps=n_sub, input_points=k),
+            band_limited_inputs(u, n_points=k) if k > 1 else u,
+        )
+        for method, n_sub, k in [("rk4", 8, 5), ("solve_ivp", 1, 5), ("rk4", 8, 1)]
+    }
+    reference = runs[("solve_ivp", 1, 5)]
+    assert np.abs(runs[("rk4", 8, 5)] - reference).max() < 1e-3 * np.ptp(reference)
+    assert np.abs(runs[("rk4", 8, 1)] - reference).max() > 0.5 * np.ptp(reference)
+
+
+def test_a_fit_reading_between_samples_finds_the_damping():
+    """A smooth force sampled coarsely: held, the fit bends the damping; read
+    between the samples (input_points=3), it finds it."""
+
+    def oscillator(x, u, *, xp, omega, zeta):
+        accel = -2 * zeta * omega * x[:, 1] - omega**2 * x[:, 0] + u[:, 0]
+        return xp.stack([x[:, 1], accel], axis=1)
+
+    dt, fine = 0.1, 50
+    t = np.arange(200 * fine) * dt / fine
+    smooth = [np.sin(1.1 * t + p) + np.sin(12.6 * t + 2 * p) for p in (0.0, 1.0)]
+    names = dict(state_names=["position", "speed"], observed=["position"])
+    exact = StateSpaceModel(
+        oscillator,
+        {"omega": 2.0, "zeta": 0.2},
+        dt=dt / fine,
+        fixed=("omega", "zeta"),
+        **names,
+    ).fit_simulation(smooth[0][:, None], np.zeros((len(t), 1)))
+    sampled = [s[::fine, None] for s in smooth]
+    measured = [exact.simulate_from_state(s[:, None], [0, 0])[::fine] for s in smooth]
+    start = {"omega": 1.7, "zeta": 0.3}
+    held = StateSpaceModel(oscillator, start, dt=dt, n_init=10, **names)
+    held.fit_simulation(sampled, measured)
+    between = StateSpaceModel(
+        oscillator, start, dt=dt, n_init=10, input_points=3, **names
+    ).fit_simulation([band_limited_inputs(s) for s in sampled], measured)
+    assert abs(held.params_["zeta"] / 0.2 - 1) > 0.1
+    assert_allclose(
+        [between.params_[k] for k in ("omega", "zeta")], [2.0, 0.2], rtol=0.01
+    )
+    assert between.rmse_ < held.rmse_ / 10
+
+
+def test_a_correction_reads_every_point():
+    """A hybrid's correction (correction_form='rhs') was sized for the inputs
+    as given: it gets every point, the equations the point of their stage."""
+    seen = []
+
+    def correction(x, v):
+        seen.append(v.shape[1])
+        return 0.0 * x
+
+    model = _model(input_points=3)
+    model.fit_simulation(band_limited_inputs(_force(60)), np.zeros((60, 1)))
+    model.step(np.zeros((2, 2)), np.ones((2, 3)), correction=correction)
+    assert seen == [3, 3, 3, 3]
+
+
+def test_bad_input_points_are_named():
+    u = _force(60)
+    with pytest.raises(
+        ValueError, match=r"input_points=3 needs inputs of a multiple of 3"
+    ):
+        _model(input_points=3).fit_simulation(
+            np.column_stack([u, u]), np.zeros((60, 1))
+        )
+    with pytest.raises(ValueError, match="input_points=3 is for time='continuous'"):
+        StateSpaceModel(
+            duffing,
+            PARAMS,
+            state_names=["y", "v"],
+            observed=["y"],
+            time="discrete",
+            input_points=3,
+        ).fit_simulation(band_limited_inputs(u), np.zeros((60, 1)))
+    with pytest.raises(ValueError, match="input_points"):
+        _model(input_points=0).fit_simulation(u, np.zeros((60, 1)))

@@ -1,5 +1,7 @@
 """StateSpaceModel(input_points=k): the integrator reads the input between samples."""
 
+import warnings
+
 import numpy as np
 import pytest
 import torch
@@ -149,3 +151,45 @@ def test_bad_input_points_are_named():
         ).fit_simulation(band_limited_inputs(u), np.zeros((60, 1)))
     with pytest.raises(ValueError, match="input_points"):
         _model(input_points=0).fit_simulation(u, np.zeros((60, 1)))
+
+
+@pytest.mark.parametrize("correction_form", ["step", "rhs"])
+def test_the_state_space_hybrid_trains_through_a_physics_reading_points(
+    correction_form,
+):
+    from skhybrid.hybrid import StateSpaceHybridRegressor
+
+    def oscillator(x, u, *, xp, omega, zeta):
+        accel = -2 * zeta * omega * x[:, 1] - omega**2 * x[:, 0] + u[:, 0]
+        return xp.stack([x[:, 1], accel], axis=1)
+
+    t = 0.1 * np.arange(120)
+    inputs = [band_limited_inputs(np.sin(1.3 * t + p)) for p in (0.0, 1.0, 2.0)]
+    physics = StateSpaceModel(
+        oscillator,
+        {"omega": 2.0, "zeta": 0.2},
+        state_names=["q", "v"],
+        observed=["q"],
+        dt=0.1,
+        input_points=3,
+        n_init=10,
+        fixed=("omega", "zeta"),
+    )
+    outputs = [
+        physics.fit_simulation(u, np.zeros((120, 1))).simulate_from_state(u, [0, 0])
+        for u in inputs
+    ]
+    hybrid = StateSpaceHybridRegressor(
+        physics,
+        n_init=10,
+        horizon=20,
+        max_epochs=2,
+        hidden_layer_sizes=(8,),
+        correction_form=correction_form,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hybrid.fit_simulation(inputs[:2], outputs[:2])
+    simulated = hybrid.simulate(inputs[2], outputs[2][:10])
+    assert simulated.shape == (120, 1) and np.all(np.isfinite(simulated))

@@ -245,7 +245,10 @@ class SystemSpec:
     published : dict, default={}
         ``{test name: {label: (rmse, source)}}`` shown beside the figures.
     physics_inputs : callable or None, default=None
-        Maps a record's inputs to the physics' (None: the same).
+        Maps a record's inputs to the physics' (None: the same), applied to
+        every record the physics and the state-space hybrid meet; for example
+        :func:`~skhybrid.domain.band_limited_inputs`, for a physics with
+        ``input_points=3`` that reads a smooth input between its samples.
     segments : "auto" or tuple, default="auto"
         Samples per segment of the physics' multiple-shooting fit to try
         (``None`` in the tuple: whole records). ``"auto"``: whole records and

@@ -394,13 +394,15 @@ def test_second_run_into_a_busy_folder_is_refused(tmp_path, capsys, no_training)
         assert _run(out, "--seed", "1") == 2
         _one_error_line(capsys, "in use by another skhybrid run", f"pid {first.pid}")
     finally:
-        # Press Ctrl-C until it lands: one that arrives while the run is still
-        # importing its libraries can be swallowed by one of them, and a user
-        # would press again.
-        for _ in range(12):
+        # Press Ctrl-C, and again only if the run is still going a minute later:
+        # one that arrives while the run is still importing its libraries can be
+        # swallowed by one of them (a user would press again), while a run that
+        # took it may need many seconds to exit on 2 busy cores (a second press
+        # then would kill it mid-exit).
+        for _ in range(3):
             first.send_signal(signal.SIGINT)
             try:
-                _, err = first.communicate(timeout=10)
+                _, err = first.communicate(timeout=60)
                 break
             except subprocess.TimeoutExpired:
                 continue

@@ -385,7 +385,7 @@ default=None
                 "dt=None, but time='continuous' needs the sample period: pass "
                 "dt=data.dt (every loader of skhybrid.datasets returns it)."
             )
-        if self.time == "discrete" and getattr(self, "input_points", 1) != 1:
+        if self.time == "discrete" and self.input_points != 1:
             raise ValueError(
                 f"input_points={self.input_points} is for time='continuous', whose "
                 "integrator reads the input between samples; a time='discrete' rhs "
@@ -543,7 +543,7 @@ default=None
         points (columns ``j * k + i``, :func:`band_limited_inputs`' layout)
         interpolated linearly at ``tau``.
         """
-        k = int(getattr(self, "input_points", 1))
+        k = int(self.input_points)
         if k == 1:
             return lambda tau: u
         width = u.shape[1]
@@ -647,7 +647,7 @@ default=None
             rhs = f
             # The correction reads the sample's inputs as given (every point of
             # them with input_points > 1), as the network was sized for them.
-            points = int(getattr(self, "input_points", 1)) > 1
+            points = self.input_points > 1
 
             def f(z, v):
                 return rhs(z, v) + correction(z, u if points else v)

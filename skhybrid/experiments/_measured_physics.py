@@ -38,7 +38,7 @@ from skhybrid.domain import (
 )
 
 __all__ = [
-    "duffing_band_limited",
+    "duffing",
     "duffing_foh",
     "emps_axis",
     "emps_physics",
@@ -220,8 +220,30 @@ def _duffing_rhs(y, v, u, g, d, k1, k2, k3, c):
     return v, g * u + c - d * v - k1 * y - k2 * y**2 - k3 * y**3
 
 
-def _duffing_rk4(x, u0, um, u1, dt, p, xp):
+def duffing(x, u, *, xp, g, d, k1, k2, k3, c):
+    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3``, continuous time.
+
+    The quadratic term ``k2`` and the constant ``c`` absorb the circuit's
+    asymmetry and offsets. :func:`silverbox_physics` integrates it with the
+    input read between samples (``StateSpaceModel(input_points=...)``).
+    """
+    dy, dv = _duffing_rhs(x[:, 0], x[:, 1], u[:, 0], g, d, k1, k2, k3, c)
+    return xp.stack([dy, dv], axis=1)
+
+
+def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3`` over one sample.
+
+    Classical Runge-Kutta over ``dt`` with the input interpolated linearly from
+    ``u[:, 0]`` (at the sample) to ``u[:, 1]`` (at the next): a first-order
+    hold. The Silverbox's physics until issue 24, kept for the run folders that
+    pickled it: :func:`duffing` with ``input_points=2`` is the same step, to
+    the last bit.
+    """
     y, v = x[:, 0], x[:, 1]
+    u0, u1 = u[:, 0], u[:, 1]
+    um = 0.5 * (u0 + u1)
+    p = (g, d, k1, k2, k3, c)
     a1, b1 = _duffing_rhs(y, v, u0, *p)
     a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, um, *p)
     a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, um, *p)
@@ -233,31 +255,6 @@ def _duffing_rk4(x, u0, um, u1, dt, p, xp):
         ],
         axis=1,
     )
-
-
-def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
-    """Duffing ``y'' = g u + c - d y' - k1 y - k2 y^2 - k3 y^3`` over one sample.
-
-    Classical Runge-Kutta over ``dt`` with the input interpolated linearly from
-    ``u[:, 0]`` (at the sample) to ``u[:, 1]`` (at the next): a first-order
-    hold. The quadratic term ``k2`` and the constant ``c`` absorb the circuit's
-    asymmetry and offsets. The Silverbox's physics until issue 24 (kept for the
-    run folders that pickled it); :func:`duffing_band_limited` replaced it.
-    """
-    u0, u1 = u[:, 0], u[:, 1]
-    return _duffing_rk4(x, u0, 0.5 * (u0 + u1), u1, dt, (g, d, k1, k2, k3, c), xp)
-
-
-def duffing_band_limited(x, u, *, xp, g, d, k1, k2, k3, c, dt):
-    """The Duffing equation of :func:`duffing_foh`, fed the input between samples.
-
-    Classical Runge-Kutta over ``dt`` reading the input at the step's start,
-    midpoint and end, ``u[:, 0]``, ``u[:, 1]`` and ``u[:, 2]``: the columns of
-    :func:`skhybrid.domain.band_limited_inputs`, which interpolates the
-    band-limited excitation instead of holding it.
-    """
-    p = (g, d, k1, k2, k3, c)
-    return _duffing_rk4(x, u[:, 0], u[:, 1], u[:, 2], dt, p, xp)
 
 
 def _duffing_equation_error(u, y, dt):
@@ -275,11 +272,11 @@ def _duffing_equation_error(u, y, dt):
     return dict(zip(("g", "c", "d", "k1", "k2", "k3"), theta.tolist(), strict=True))
 
 
-#: The Silverbox physics' step function for each way of reading the input
-#: between samples, with the function that makes its inputs from a record's.
+#: The Silverbox physics' input points a sample for each way of reading the
+#: input between samples, with the function that makes them from a record's.
 INTERSAMPLE = {
-    "band-limited": (duffing_band_limited, band_limited_inputs),
-    "first-order hold": (duffing_foh, with_next_input),
+    "band-limited": (3, band_limited_inputs),
+    "first-order hold": (2, with_next_input),
 }
 
 
@@ -297,10 +294,11 @@ def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30, intersample="band-lim
     max_nfev : int, default=30
         Most residual evaluations of the simulation-error refinement.
     intersample : {"band-limited", "first-order hold"}, default="band-limited"
-        The input between samples: interpolated as a band-limited signal
-        (:func:`duffing_band_limited`; the model's inputs are
+        The input between samples, read by one RK4 step of :func:`duffing` a
+        sample at its start, midpoint and end: interpolated as a band-limited
+        signal (``input_points=3``; the model's inputs are
         :func:`~skhybrid.domain.band_limited_inputs` columns) or linearly
-        (:func:`duffing_foh`, inputs :func:`with_next_input`). Chosen on the
+        (``input_points=2``, inputs :func:`with_next_input`). Chosen on the
         validation tail (issue 24): 0.281 mV against 0.935.
 
     Returns
@@ -313,16 +311,14 @@ def silverbox_physics(dt, u, y, *, n_init=50, max_nfev=30, intersample="band-lim
         raise ValueError(
             f"intersample must be one of {sorted(INTERSAMPLE)}; got {intersample!r}."
         )
-    params = _duffing_equation_error(u, y, dt)
-    params["dt"] = float(dt)
     return StateSpaceModel(
-        INTERSAMPLE[intersample][0],
-        params,
+        duffing,
+        _duffing_equation_error(u, y, dt),
         state_names=["output", "derivative (latent)"],
         observed=["output"],
-        time="discrete",
+        dt=float(dt),
+        input_points=INTERSAMPLE[intersample][0],
         n_init=n_init,
-        fixed=("dt",),
         max_nfev=max_nfev,
         vectorized=True,
     )

@@ -10,7 +10,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 from skhybrid.domain import StateSpaceModel, band_limited_inputs
 from skhybrid.experiments._measured_physics import (
     _duffing_rhs,
-    silverbox_physics,
+    duffing,
+    duffing_foh,
     with_next_input,
 )
 
@@ -18,9 +19,21 @@ DT = 2**14 / 1e7
 PARAMS = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6e3, "k3": 7e5, "c": -1e3}
 
 
-def duffing(x, u, *, xp, g, d, k1, k2, k3, c):
-    dy, dv = _duffing_rhs(x[:, 0], x[:, 1], u[:, 0], g, d, k1, k2, k3, c)
-    return xp.stack([dy, dv], axis=1)
+def duffing_band_limited(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """One hand-written RK4 step reading the input at its start, middle, end."""
+    p = (g, d, k1, k2, k3, c)
+    y, v = x[:, 0], x[:, 1]
+    a1, b1 = _duffing_rhs(y, v, u[:, 0], *p)
+    a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, u[:, 1], *p)
+    a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, u[:, 1], *p)
+    a4, b4 = _duffing_rhs(y + dt * a3, v + dt * b3, u[:, 2], *p)
+    return xp.stack(
+        [
+            y + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+            v + dt / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+        ],
+        axis=1,
+    )
 
 
 def _force(n=500):
@@ -45,26 +58,35 @@ def _run(model, inputs):
 
 
 @pytest.mark.parametrize(
-    "intersample, points, transform",
+    "step, points, transform",
     [
-        ("band-limited", 3, band_limited_inputs),
-        ("first-order hold", 2, with_next_input),
+        (duffing_band_limited, 3, band_limited_inputs),
+        (duffing_foh, 2, with_next_input),
     ],
 )
-def test_points_give_the_hand_written_step(intersample, points, transform):
-    """A continuous Duffing reading 3 (2) points a sample is the Silverbox's
-    hand-written band-limited (first-order-hold) RK4 step, to the last bit."""
+def test_points_give_the_hand_written_step(step, points, transform):
+    """A continuous Duffing reading 3 (2) points a sample is a hand-written
+    band-limited (the Silverbox's old first-order-hold) RK4 step, to the last
+    bit."""
     u = _force()
     inputs = transform(u)
-    step = silverbox_physics(DT, u, np.zeros_like(u), intersample=intersample)
-    step.set_params(params={**PARAMS, "dt": DT}, fixed=(*PARAMS, "dt"))
+    written = StateSpaceModel(
+        step,
+        {**PARAMS, "dt": DT},
+        state_names=["y", "v"],
+        observed=["y"],
+        time="discrete",
+        fixed=(*PARAMS, "dt"),
+    )
     model = _model(input_points=points)
-    assert_array_equal(_run(model, inputs), _run(step, inputs))
+    assert_array_equal(_run(model, inputs), _run(written, inputs))
     # The torch step, which the state-space hybrid trains through, too.
     x = torch.zeros(4, 2, dtype=torch.float64)
     v = torch.as_tensor(inputs[:4])
     values = {k: torch.tensor(p, dtype=torch.float64) for k, p in PARAMS.items()}
-    assert torch.equal(model.step(x, v, values), step.step(x, v, {**values, "dt": DT}))
+    assert torch.equal(
+        model.step(x, v, values), written.step(x, v, {**values, "dt": DT})
+    )
 
 
 def test_stages_between_points_converge_on_the_adaptive_solver():

@@ -137,7 +137,7 @@ def test_silverbox_duffing_is_found_one_step_ahead_then_by_segments(intersample)
     truth = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6.4e3, "k3": 7.5e5, "c": -1e3}
     make = functools.partial(silverbox_physics, intersample=intersample)
     exact = make(dt, u, np.zeros((3000, 1))).set_params(
-        params={**truth, "dt": dt}, fixed=(*truth, "dt")
+        params=truth, fixed=tuple(truth)
     )
     v = INTERSAMPLE[intersample][1](u)
     y = exact.fit_simulation(v, np.zeros((3000, 1))).simulate_from_state(v, [0, 0])
@@ -156,10 +156,10 @@ def test_silverbox_physics_reads_the_input_between_samples_as_told():
     y = np.zeros((400, 1))
     params = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": 0.0, "k3": 0.0, "c": 0.0}
     runs = {}
-    for mode, (step, inputs) in INTERSAMPLE.items():
+    for mode, (points, inputs) in INTERSAMPLE.items():
         model = silverbox_physics(dt, u, y, intersample=mode)
-        assert model.rhs is step
-        model.set_params(params={**params, "dt": dt}, fixed=(*params, "dt"))
+        assert model.input_points == points
+        model.set_params(params=params, fixed=tuple(params))
         model.fit_simulation(inputs(u), y)
         runs[mode] = np.ravel(model.simulate_from_state(inputs(u), [0, 0]))
     # A sine of 0.13 cycles a sample is far from linear between samples: the

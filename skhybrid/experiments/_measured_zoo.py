@@ -30,6 +30,7 @@ from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.experiments._measured_physics import fit_segments
 from skhybrid.experiments._progress import attach_epoch_logger
 from skhybrid.experiments._runner import _interrupts_raise, _physical_params
+from skhybrid.experiments._spec import pieces_per_record
 from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
 
 __all__ = [
@@ -101,10 +102,8 @@ def _records(U, Y, n):
     Each record gives at least one piece; within a record the pieces have equal
     length (the rest joins its last).
     """
-    total = sum(len(u) for u in U)
     pieces_U, pieces_Y = [], []
-    for u, y in zip(U, Y, strict=True):
-        k = max(1, round(n * len(u) / total))
+    for u, y, k in zip(U, Y, pieces_per_record([len(u) for u in U], n), strict=True):
         size = len(u) // k
         edges = [i * size for i in range(k)] + [len(u)]
         for a, b in itertools.pairwise(edges):

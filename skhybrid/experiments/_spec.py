@@ -24,6 +24,31 @@ __all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
 DEFAULT_HORIZON = 50
 #: The correction network of the family's state-space hybrids.
 HYBRID_LAYERS = (64, 64)
+#: Sub-sequences the family's state-space hybrid trains on per epoch, at least
+#: (about): short records are cut with a stride below half the horizon, down to 1.
+MIN_SUBSEQUENCES = 500
+
+
+def pieces_per_record(lengths, n_pieces):
+    """Into how many pieces each record is cut, about ``n_pieces`` in all.
+
+    In proportion to the records' lengths, at least one each: the cut of the
+    state-space hybrid's training records (``SystemSpec.hybrid_records``).
+
+    Parameters
+    ----------
+    lengths : list of int
+        Samples of each record.
+    n_pieces : int
+        Pieces wanted in all.
+
+    Returns
+    -------
+    pieces : list of int
+        Pieces of each record.
+    """
+    total = sum(lengths)
+    return [max(1, round(n_pieces * n / total)) for n in lengths]
 
 
 def _is_frame(obj):
@@ -258,7 +283,9 @@ class SystemSpec:
         The state-space hybrids to try, ``{label: StateSpaceHybridRegressor
         parameters}``; ``"auto"``: horizons ``T`` of 50 and 200 samples (below
         half the shortest fitting part), a (64, 64) correction of every state
-        trained with :func:`hybrid_settings`, where the physics is a
+        trained with :func:`hybrid_settings` on sub-sequences that start every
+        half horizon, or closer (down to every sample) where the records are
+        too short to give about 500 of them, where the physics is a
         :class:`~skhybrid.domain.StateSpaceModel` (none for another physics);
         None: no state-space hybrid.
     hybrid_records : int, default=4
@@ -590,14 +617,18 @@ class SystemSpec:
             return {}
         if self.hybrids != "auto":
             return dict(self.hybrids)
-        longest_piece = max(fit_lengths) // max(1, self.hybrid_records)
+        pieces = pieces_per_record(fit_lengths, max(1, self.hybrid_records))
+        longest_piece = max(n // k for n, k in zip(fit_lengths, pieces, strict=True))
+        # A sub-sequence every half horizon, or closer where the records are too
+        # short to give MIN_SUBSEQUENCES of them per epoch.
+        dense = sum(fit_lengths) // MIN_SUBSEQUENCES
         out = {}
         for T in (DEFAULT_HORIZON, 4 * DEFAULT_HORIZON):
             T = min(T, longest_piece // 2 - self.n_init)
             if T < 2 or f"T={T}, {HYBRID_LAYERS}" in out:
                 continue
             out[f"T={T}, {HYBRID_LAYERS}"] = hybrid_settings(
-                T, HYBRID_LAYERS, stride=max(1, T // 2)
+                T, HYBRID_LAYERS, stride=max(1, min(T // 2, dense))
             )
         return out
 

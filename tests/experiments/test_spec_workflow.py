@@ -264,6 +264,15 @@ def test_the_default_family_scales_with_the_records(machine):
     assert spec.segment_candidates([600]) == (None, 150)
     hybrids = spec.hybrid_candidates([4000])
     assert [h["horizon"] for h in hybrids.values()] == [50, 200]
+    # A sub-sequence every half horizon on long records; on short ones closer,
+    # so that an epoch holds about 500 of them.
+    long = spec.hybrid_candidates([40000, 20000])
+    assert [h["stride"] for h in long.values()] == [25, 100]
+    assert [h["stride"] for h in hybrids.values()] == [8, 8]
+    two = spec.hybrid_candidates([300, 300])
+    assert [h["stride"] for h in two.values()] == [1, 1]
+    # Two records, four pieces: each record is cut in two halves of 150 samples.
+    assert [h["horizon"] for h in two.values()] == [50, 65]
     # Short records: the horizon stays below half a piece of the training records.
     assert [h["horizon"] for h in spec.hybrid_candidates([400]).values()] == [40]
     assert machine.make_spec(hybrids=None).hybrid_candidates([4000]) == {}

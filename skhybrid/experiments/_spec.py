@@ -16,6 +16,7 @@ import numpy as np
 from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
+from skhybrid.hybrid import MIN_SUBSEQUENCES
 
 __all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
 
@@ -24,9 +25,6 @@ __all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
 DEFAULT_HORIZON = 50
 #: The correction network of the family's state-space hybrids.
 HYBRID_LAYERS = (64, 64)
-#: Sub-sequences the family's state-space hybrid trains on per epoch, at least
-#: (about): short records are cut with a stride below half the horizon, down to 1.
-MIN_SUBSEQUENCES = 500
 
 
 def pieces_per_record(lengths, n_pieces):
@@ -620,7 +618,8 @@ class SystemSpec:
         pieces = pieces_per_record(fit_lengths, max(1, self.hybrid_records))
         longest_piece = max(n // k for n, k in zip(fit_lengths, pieces, strict=True))
         # A sub-sequence every half horizon, or closer where the records are too
-        # short to give MIN_SUBSEQUENCES of them per epoch.
+        # short to give MIN_SUBSEQUENCES of them per epoch (as the hybrid's own
+        # stride="auto" does from a quarter horizon).
         dense = sum(fit_lengths) // MIN_SUBSEQUENCES
         out = {}
         for T in (DEFAULT_HORIZON, 4 * DEFAULT_HORIZON):

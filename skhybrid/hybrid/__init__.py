@@ -15,13 +15,15 @@ The decomposition ``Y = f(X; theta) + NN(X; W) + N(phi)`` of the method paper:
 
 from skhybrid.hybrid._boosting import HybridBoostingRegressor, StageWhiteness
 
-# The measured zoo's static corrections: private estimators, re-exported (not in
-# __all__) for skhybrid.experiments, which may not import a private module.
+# The measured zoo's static corrections (private estimators) and the state-space
+# hybrid's sub-sequence count, re-exported (not in __all__) for
+# skhybrid.experiments, which may not import a private module.
 from skhybrid.hybrid._correction import _NARXSimulator as _NARXSimulator
 from skhybrid.hybrid._correction import _PhysicsCorrection as _PhysicsCorrection
 from skhybrid.hybrid._correction import _TransformedInputs as _TransformedInputs
 from skhybrid.hybrid._ensemble import HybridEnsembleRegressor
 from skhybrid.hybrid._noise import AutoRegressiveNoise, GaussianNoise
+from skhybrid.hybrid._state_space import MIN_SUBSEQUENCES as MIN_SUBSEQUENCES
 from skhybrid.hybrid._state_space import StateSpaceHybridRegressor
 
 __all__ = [

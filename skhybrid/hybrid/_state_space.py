@@ -49,6 +49,10 @@ from skhybrid.utils._transaction import TransactionalFitMixin, transactional
 
 __all__ = ["StateSpaceHybridRegressor"]
 
+#: Sub-sequences an epoch holds, at least (about), under ``stride="auto"``:
+#: short records are cut with a stride below the usual one, down to 1.
+MIN_SUBSEQUENCES = 500
+
 
 def _state_indices(items, names, param):
     """Column indices of ``items`` (names or indices; None is all) in ``names``."""
@@ -204,7 +208,10 @@ class StateSpaceHybridRegressor(
         Samples between the starts of consecutive training sub-sequences (1:
         every sub-sequence; larger values train faster on long records).
         ``"auto"``: ``max(1, horizon // 4)``, so that every sample lies in about
-        four sub-sequences.
+        four sub-sequences, or closer (down to 1) where the records hold fewer
+        than ``500 * horizon // 4`` samples, so that an epoch holds about 500
+        sub-sequences (short records train as deepSI's SUBNET does, on a
+        sub-sequence at every sample).
     physics_initial_state : bool, default=True
         Whether the encoder corrects the physics' own estimate of the latent
         states (the least-squares fit of
@@ -661,13 +668,17 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
         k, T = self.n_init, self.horizon
         check_sequence_objective(self, T)
-        stride = max(1, T // 4) if self.stride == "auto" else self.stride
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
             if len(u) != len(y):
                 raise ValueError(
                     f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
                     f"{len(y)}; each record's inputs and outputs must be aligned."
                 )
+        stride = self.stride
+        if stride == "auto":
+            # Every quarter horizon, or closer where the records are short.
+            n_samples = sum(len(y) for y in Y_list)
+            stride = max(1, min(T // 4, n_samples // MIN_SUBSEQUENCES))
         physics = clone(self.physics).set_params(n_init=k)
         self._start_physics(physics, "fit_simulation", U_list, Y_list)
 

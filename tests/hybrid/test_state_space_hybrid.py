@@ -83,7 +83,6 @@ def test_observed_states_start_from_the_last_measured_sample():
 
 
 def test_auto_stride_takes_a_sub_sequence_every_quarter_horizon(monkeypatch):
-    u, y = _records(n=1, length=120)
     seen = {}
     original = StateSpaceHybridRegressor._fit_windows
 
@@ -92,10 +91,18 @@ def test_auto_stride_takes_a_sub_sequence_every_quarter_horizon(monkeypatch):
         return original(self, physics, Ytr, *args)
 
     monkeypatch.setattr(StateSpaceHybridRegressor, "_fit_windows", spy)
+    u, y = _records(n=1, length=1200)
     for stride in ("auto", 2, 1):
         _model(horizon=8, stride=stride, max_epochs=1).fit_simulation(u, y)
-    # 96 training samples (the last fifth validates): 96 - 11 + 1 starts.
-    assert seen == {1: 86, 2: 43, "auto": 43}
+    # 960 training samples (the last fifth validates): (960 - 11) // 2 + 1
+    # starts at a quarter horizon, enough for about 500 sub-sequences.
+    assert seen == {1: 950, 2: 475, "auto": 475}
+    # A short record gives too few at a quarter horizon: one at every sample.
+    seen.clear()
+    u, y = _records(n=1, length=120)
+    for stride in ("auto", 2):
+        _model(horizon=8, stride=stride, max_epochs=1).fit_simulation(u, y)
+    assert seen == {2: 43, "auto": 86}
 
 
 def test_same_seed_same_model():

@@ -179,7 +179,8 @@ def _from_estimation_start(model, u, u_est, y_est, n_init):
     """Free run of ``u`` from the state estimated on the estimation record's window.
 
     Defined for a :class:`~skhybrid.domain.StateSpaceModel` physics (behind
-    transformed inputs) and its static corrections; NaN for other models.
+    transformed inputs), its static corrections and the state-space hybrid
+    (its corrected run from the physics' state); NaN for other models.
     """
     nan = np.full(len(u), np.nan)
     correction = model if hasattr(model, "correct") else None

@@ -308,7 +308,9 @@ class SystemSpec:
         first estimation record's initialisation window (the state is the same
         at the start of both records) and every sample is scored. Defined for
         models whose physics is a :class:`~skhybrid.domain.StateSpaceModel`
-        (the physics and its static corrections); the others score NaN there.
+        (the physics, its static corrections and the state-space hybrid, whose
+        corrected run starts from the physics' state); the others score NaN
+        there.
 
     Examples
     --------

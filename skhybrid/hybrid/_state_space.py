@@ -980,6 +980,103 @@ n_init, n_outputs) or list of 2-D arrays
             out[idx, s:n] = sim
         return pack_trajectories(out, lengths, form)
 
+    def estimate_initial_state(self, inputs, outputs):
+        """The physics' state at the first sample of records, at ``params_``.
+
+        :meth:`StateSpaceModel.estimate_initial_state` of the physics at the
+        jointly trained physical parameters (the encoder is not used): the
+        start of :meth:`simulate_from_state`.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+            Inputs over (at least) the initialisation window of each record.
+        outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
+n_outputs) or list of 2-D arrays
+            Measured outputs of the initialisation window.
+
+        Returns
+        -------
+        states : ndarray of shape (n_records, n_states)
+            The physics' state at the first sample of each record.
+        """
+        check_is_fitted(self)
+        return self.physics_.estimate_initial_state(
+            inputs, outputs, params=self.params_
+        )
+
+    def simulate_from_state(self, inputs, states):
+        """Simulate the corrected model in free run from known physics states.
+
+        For a record that starts where no measured window precedes it (a test
+        record started from another record's initial state, say): the
+        physics' states are given, the augmented states start at zero, and
+        the corrected state update runs from the first sample.
+
+        Parameters
+        ----------
+        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+            Inputs of each record.
+        states : array-like of shape (n_states,) or (n_records, n_states)
+            The physics' state at the first sample of each record (for example
+            from :meth:`estimate_initial_state`).
+
+        Returns
+        -------
+        outputs : ndarray or list of ndarray
+            Simulated outputs ``(n_times, n_outputs)`` of each record, in the
+            container form of ``inputs``; row 0 is the output of ``states``.
+
+        Raises
+        ------
+        SimulationDivergedError
+            Where the run reaches a non-finite output.
+        """
+        import torch
+
+        check_is_fitted(self)
+        U_list, _, form = check_trajectories(inputs, None)
+        if U_list[0].shape[1] != self.n_inputs_:
+            raise ValueError(
+                f"the model was fitted with {self.n_inputs_} input column(s); got "
+                f"{U_list[0].shape[1]}."
+            )
+        module = self.module_
+        n_states = module.n_physics_states
+        x0 = np.atleast_2d(np.asarray(states, dtype=float))
+        if x0.shape != (len(U_list), n_states):
+            raise ValueError(
+                f"states must have shape ({len(U_list)}, {n_states}) for "
+                f"{len(U_list)} record(s) of the physics' state_names="
+                f"{list(self.physics_.state_names)!r}; got shape {x0.shape}."
+            )
+        lengths = np.array([len(u) for u in U_list])
+        U = np.zeros((len(U_list), int(lengths.max()), self.n_inputs_))
+        for i, u in enumerate(U_list):
+            U[i, : len(u)] = u
+        x = torch.as_tensor(
+            np.hstack([x0, np.zeros((len(x0), module.n_augmented))]),
+            dtype=torch.float64,
+        )
+        u = torch.as_tensor(U, dtype=torch.float64)
+        outs = []
+        with torch.no_grad():
+            for t in range(U.shape[1]):
+                outs.append(module.observe(x, self._params_t))
+                if t < U.shape[1] - 1:
+                    x = module.advance(x, u[:, t], self._params_t)
+        out = torch.stack(outs, dim=1).numpy()
+        for i, n in enumerate(lengths):
+            bad = np.flatnonzero(~np.all(np.isfinite(out[i, :n]), axis=1))
+            if bad.size:
+                raise SimulationDivergedError(
+                    f"the simulation diverged at time step {bad[0]}: record {i} "
+                    "reached a non-finite output."
+                )
+        return pack_trajectories(out, lengths, form)
+
     def _least_squares_run(self, Y, U):
         """Outputs ``(n, T - k, p)`` after the first window, its end state fitted.
 

@@ -330,6 +330,30 @@ def test_the_original_protocol_starts_from_the_estimation_records_state(
     assert scores["physics"]["mean"] == pytest.approx(rmse)
 
 
+def test_the_original_protocol_runs_the_state_space_hybrid_from_that_state(
+    machine, tmp_path
+):
+    import joblib
+
+    from skhybrid.experiments._sealed import _from_estimation_start
+
+    spec = machine.make_spec(out=tmp_path / "run", score_from_estimation_start=True)
+    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0])
+    scores = summary["test_rmse"]["test_original_protocol"]
+    assert np.isfinite(scores["state-space hybrid"]["mean"])
+    # The corrected model's run from the physics' state at the estimation
+    # record's start (the encoder has no window there).
+    u0, y0 = machine.record(600, 0)
+    u, y = machine.record(400, 7)
+    folder = tmp_path / "run" / "models" / "toy-machine-seed-0"
+    hybrid = joblib.load(folder / "state-space-hybrid.joblib")
+    x0 = hybrid.estimator.estimate_initial_state(u0[:10], y0[:10])
+    expected = np.ravel(hybrid.estimator.simulate_from_state(u, x0))
+    np.testing.assert_allclose(_from_estimation_start(hybrid, u, u0, y0, 10), expected)
+    rmse = np.sqrt(np.mean((expected - y[:, 0]) ** 2))
+    assert scores["state-space hybrid"]["mean"] == pytest.approx(rmse)
+
+
 def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
     out = tmp_path / "run"
     spec = machine.make_spec(out=out, hybrids=None)

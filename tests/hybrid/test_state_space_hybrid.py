@@ -439,3 +439,43 @@ def test_validation_split_records_needs_a_record_to_train_on():
     u, y = _records(n=1)
     with pytest.raises(ValueError, match=r"validation_split='records'.*1 record"):
         _model(validation_split="records").fit_simulation(u, y)
+
+
+def test_simulate_from_state_starts_as_its_physics_and_keeps_its_correction():
+    u, y = _records(n=6, length=120)
+    ut, yt = _records(n=3, length=120, seed=1)
+    start = np.zeros((3, 1))  # the records start at rest: their true state
+    # Untrained, the correction is zero: the physics' own run at params_.
+    untrained = _model(max_epochs=1, lr=1e-12).fit_simulation(u, y)
+    physics = untrained.physics_
+    np.testing.assert_allclose(
+        untrained.simulate_from_state(ut, start),
+        physics.set_params(params=untrained.params_).simulate_from_state(ut, start),
+        atol=1e-9,
+    )
+    # Trained, the run from the state carries the correction.
+    model = _model(max_epochs=40, lr=3e-3, horizon=10, patience=40).fit_simulation(u, y)
+    fitted = _physics(n_init=3).fit_simulation(u, y)
+
+    def rmse(sim):
+        return np.sqrt(np.mean((sim - yt)[:, 3:] ** 2))
+
+    err_hybrid = rmse(model.simulate_from_state(ut, start))
+    assert err_hybrid < 0.7 * rmse(fitted.simulate_from_state(ut, start))
+    # ... as well as its run from a measured window (measured: 0.0733, 0.0734).
+    assert abs(err_hybrid - rmse(model.simulate(ut, yt[:, :3]))) < 0.05 * err_hybrid
+    # Forms: one record, a list; the state estimated on a window.
+    np.testing.assert_allclose(
+        model.simulate_from_state(ut[0], [0.0]), model.simulate_from_state(ut, start)[0]
+    )
+    x0 = model.estimate_initial_state(ut[:, :3], yt[:, :3])
+    assert x0.shape == (3, 1)
+    runs = model.simulate_from_state([ut[0], ut[1][:50]], x0[:2])
+    assert [r.shape for r in runs] == [(120, 1), (50, 1)]
+
+
+def test_simulate_from_state_names_a_bad_state():
+    u, y = _records()
+    model = _model().fit_simulation(u, y)
+    with pytest.raises(ValueError, match=r"states must have shape \(4, 1\)"):
+        model.simulate_from_state(u, np.zeros((4, 2)))

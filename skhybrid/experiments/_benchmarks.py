@@ -151,7 +151,6 @@ class CascadedTanks(_Benchmark):
     name = "cascaded-tanks"
     title = "Cascaded tanks with overflow (measured)"
     unit = "V"
-    hybrids = False
     fetch, load_files = fetch_cascaded_tanks, load_cascaded_tanks
 
     def make_spec(self, data=None, quick=False):
@@ -164,7 +163,10 @@ class CascadedTanks(_Benchmark):
             # Level units are volts of the lower sensor; the upper tank is latent.
             physics=tanks_physics(d.dt, max_nfev=100),
             segments=(None,),
-            hybrids=None,
+            # Issue 24, chosen on the validation tail (seeds 0-2): sub-sequences
+            # of 200 samples, one every 4, of the one record left uncut.
+            hybrids={"T=200, (64, 64)": hybrid_settings(200, (64, 64), stride=4)},
+            hybrid_records=1,
             # The original protocol too: all 1024 samples, from the state of the
             # estimation record's start (the published grey-box figures' protocol).
             score_from_estimation_start=True,
@@ -319,8 +321,10 @@ def _pair(split):
 BUILTIN_NOTES = {
     "cascaded-tanks": (
         "Own candidates: whole-record physics fits only (one record of 1024 "
-        "samples) and no state-space hybrid; both chosen in 0.2 on the "
-        "validation tail, kept so that the recorded figures reproduce."
+        "samples), chosen in 0.2 on the validation tail; one state-space "
+        "hybrid, T = 200 on the uncut record with a sub-sequence every 4 "
+        "samples, chosen on the validation tail in issue 24 (the family's "
+        "T = 46 on four pieces trained worse than physics + dense)."
     ),
     "emps": (
         "Own candidates: segments of 2000-8000 samples and hybrids that correct "

@@ -469,11 +469,14 @@ def test_cascaded_tanks_quick_run_on_the_real_files(shared_data_dir, tmp_path):
         "physics + linear",
         "physics + dense",
         "physics + dense ensemble",
+        "state-space hybrid",
     }
     assert set(summary["test_rmse"]["test"]) == models
-    # The original protocol: defined for the physics and its corrections only.
+    # The original protocol: defined for the physics, its corrections and the
+    # state-space hybrid (from the physics' state), not for the black boxes.
     original = summary["test_rmse"]["test_original_protocol"]
     assert original["physics"]["mean"] is not None
+    assert original["state-space hybrid"]["mean"] is not None
     assert original["linear ARX"]["mean"] is None
     assert (out / "cascaded-tanks.png").stat().st_size > 10_000
     assert main([*argv, "--out", str(out)]) == 2  # finished: kept

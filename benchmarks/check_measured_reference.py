@@ -29,11 +29,13 @@ from pathlib import Path
 #: system -> (chosen model, or the models chosen at the seeds, {split: (mean, min,
 #: max)}), official units; the figures are those of each seed's chosen model.
 REFERENCE = {
+    # Seeds 0 and 1 choose the long-horizon state-space hybrid, seed 2 physics
+    # + dense (issue 24, "the tanks' long-horizon hybrid").
     "cascaded-tanks": (
-        "physics + dense",
+        ("physics + dense", "state-space hybrid"),
         {
-            "test": (0.2218, 0.2070, 0.2304),
-            "test_original_protocol": (0.2197, 0.2071, 0.2268),
+            "test": (0.2436, 0.2070, 0.2659),
+            "test_original_protocol": (0.2408, 0.2071, 0.2599),
         },
     ),
     # The state-space hybrid at its starting physics (best epoch 0), issue 24.

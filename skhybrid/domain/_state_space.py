@@ -18,13 +18,14 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
-from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
+    check_finite_runs,
     check_trajectories,
     fit_initial_states,
     pack_trajectories,
+    stack_trajectories,
 )
 from skhybrid.utils._array_api import get_namespace, is_torch
 from skhybrid.utils._sklearn_compat import (
@@ -1190,22 +1191,16 @@ n_inputs) or list of 2-D arrays
 
     def _free_run_records(self, U_list, x0, form, initial=None, pack=True):
         _, observed, _ = self._structure()
-        lengths = np.array([len(u) for u in U_list])
-        n_in = U_list[0].shape[1]
-        U = np.zeros((len(U_list), int(lengths.max()), n_in))
-        for i, u in enumerate(U_list):
-            U[i, : len(u)] = u
+        U, lengths = stack_trajectories(U_list)
         with np.errstate(all="ignore"):
             out, _ = self._run(x0, U, self.params_, observed, np)
         out = np.asarray(out, dtype=float)
-        for i, n in enumerate(lengths):
-            bad = np.flatnonzero(~np.all(np.isfinite(out[i, :n]), axis=1))
-            if bad.size:
-                raise SimulationDivergedError(
-                    f"the simulation diverged at time step {bad[0]}: record {i} "
-                    "reached a non-finite output. The physics is unstable from "
-                    "this initial state (check the parameters and the inputs)."
-                )
+        check_finite_runs(
+            out,
+            lengths,
+            "The physics is unstable from this initial state (check the "
+            "parameters and the inputs).",
+        )
         if initial is not None:
             for i, y in enumerate(initial):
                 out[i, : len(y)] = y

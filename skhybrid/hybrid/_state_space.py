@@ -34,9 +34,11 @@ from skhybrid.neural.engine import (
 )
 from skhybrid.preprocessing import split_steps
 from skhybrid.simulation import (
+    check_finite_runs,
     check_trajectories,
     fit_initial_states,
     pack_trajectories,
+    stack_trajectories,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
@@ -1052,10 +1054,7 @@ n_inputs) or list of 2-D arrays
                 f"{len(U_list)} record(s) of the physics' state_names="
                 f"{list(self.physics_.state_names)!r}; got shape {x0.shape}."
             )
-        lengths = np.array([len(u) for u in U_list])
-        U = np.zeros((len(U_list), int(lengths.max()), self.n_inputs_))
-        for i, u in enumerate(U_list):
-            U[i, : len(u)] = u
+        U, lengths = stack_trajectories(U_list)
         x = torch.as_tensor(
             np.hstack([x0, np.zeros((len(x0), module.n_augmented))]),
             dtype=torch.float64,
@@ -1068,13 +1067,7 @@ n_inputs) or list of 2-D arrays
                 if t < U.shape[1] - 1:
                     x = module.advance(x, u[:, t], self._params_t)
         out = torch.stack(outs, dim=1).numpy()
-        for i, n in enumerate(lengths):
-            bad = np.flatnonzero(~np.all(np.isfinite(out[i, :n]), axis=1))
-            if bad.size:
-                raise SimulationDivergedError(
-                    f"the simulation diverged at time step {bad[0]}: record {i} "
-                    "reached a non-finite output."
-                )
+        check_finite_runs(out, lengths)
         return pack_trajectories(out, lengths, form)
 
     def _least_squares_run(self, Y, U):

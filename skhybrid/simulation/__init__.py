@@ -14,16 +14,20 @@ from skhybrid.simulation._initial import fit_initial_states
 from skhybrid.simulation._plot import SimulationDisplay
 from skhybrid.simulation._simulate import (
     SimulatorMixin,
+    check_finite_runs,
     check_trajectories,
     pack_trajectories,
     simulate,
+    stack_trajectories,
 )
 
 __all__ = [
     "SimulationDisplay",
     "SimulatorMixin",
+    "check_finite_runs",
     "check_trajectories",
     "fit_initial_states",
     "pack_trajectories",
     "simulate",
+    "stack_trajectories",
 ]

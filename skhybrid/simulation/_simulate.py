@@ -151,6 +151,65 @@ n_states) or list of (n_init_i, n_states) arrays, or None
     return U_list, Y0_list, form
 
 
+def stack_trajectories(arrays):
+    """Stack 2-D trajectories of different lengths, zero-padded to the longest.
+
+    The inverse of :func:`pack_trajectories` for the checked lists
+    :func:`check_trajectories` returns.
+
+    Parameters
+    ----------
+    arrays : list of ndarray of shape (n_times_i, n_columns)
+        Trajectories with the same number of columns.
+
+    Returns
+    -------
+    stacked : ndarray of shape (n_trajectories, max n_times_i, n_columns)
+        Zeros past each trajectory's end.
+    lengths : ndarray of int of shape (n_trajectories,)
+        Time steps of each trajectory.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skhybrid.simulation import stack_trajectories
+    >>> stacked, lengths = stack_trajectories([np.ones((3, 1)), np.ones((2, 1))])
+    >>> stacked.shape, lengths.tolist(), float(stacked[1, 2, 0])
+    ((2, 3, 1), [3, 2], 0.0)
+    """
+    lengths = np.array([len(a) for a in arrays])
+    stacked = np.zeros((len(arrays), int(lengths.max()), arrays[0].shape[1]))
+    for i, a in enumerate(arrays):
+        stacked[i, : len(a)] = a
+    return stacked, lengths
+
+
+def check_finite_runs(Y, lengths, hint=""):
+    """Raise where a simulated trajectory reaches a non-finite output.
+
+    Parameters
+    ----------
+    Y : ndarray of shape (n_trajectories, n_times, n_outputs)
+        Simulated trajectories, padded past their lengths (not checked there).
+    lengths : array-like of int of shape (n_trajectories,)
+        Time steps of each trajectory.
+    hint : str, default=""
+        Appended to the message (what to check).
+
+    Raises
+    ------
+    SimulationDivergedError
+        Naming the first trajectory and time step that is not finite.
+    """
+    for i, n in enumerate(lengths):
+        bad = np.flatnonzero(~np.all(np.isfinite(Y[i, :n]), axis=1))
+        if bad.size:
+            raise SimulationDivergedError(
+                f"the simulation diverged at time step {bad[0]}: record {i} "
+                f"reached a non-finite output.{' ' + hint if hint else ''}"
+            )
+
+
 def pack_trajectories(Y, lengths, form):
     """Return padded trajectories in the container form of the inputs.
 

@@ -18,6 +18,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
+from skhybrid.domain._continuation import continued_start
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
@@ -188,6 +189,19 @@ default=None
         after the other, in time order). Then ``simulate`` gives sample paths
         (``n_samples``) and bands (``return_std=True``). ``fit(X, y)`` fits no
         noise model: its one-step residuals are not those of a free run.
+    continuation : dict of str to sequence of float, or None, default=None
+        Fits before the final one, through a sequence of values of fixed
+        parameters: ``{"eps": [1e-2, 1e-3]}`` fits at ``eps = 1e-2``, then from
+        those parameters at ``1e-3``, then from those at ``params["eps"]`` (the
+        final fit). For a smoothing parameter (the width of a friction law's
+        sign, a saturation's sharpness) whose value in use makes the
+        least-squares surface rough: from a smoother surface each fit starts in
+        the basin the previous one found, where a direct fit stops in one of
+        many nearby local minima, which one depending on rounding (another BLAS
+        kernel, another machine). Each named parameter must be in ``fixed``;
+        every sequence has one value per stage. ``fit`` and ``fit_simulation``
+        run the stages on the same data, each with ``max_nfev`` evaluations;
+        only the final fit warns when it does not converge.
 
     Attributes
     ----------
@@ -261,6 +275,7 @@ default=None
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
         "vectorized": ["boolean"],
         "noise_model": [HasMethods(["fit", "sample"]), None],
+        "continuation": [dict, None],
     }
 
     def __init__(
@@ -293,6 +308,7 @@ default=None
         n_steps=1,
         vectorized=False,
         noise_model=None,
+        continuation=None,
     ):
         super().__init__(
             fixed=fixed,
@@ -323,6 +339,7 @@ default=None
         self.identifiability_tol = identifiability_tol
         self.vectorized = vectorized
         self.noise_model = noise_model
+        self.continuation = continuation
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -412,7 +429,8 @@ default=None
                 f"got params={self.params!r}."
             )
         out = {}
-        for name, value in self.params.items():
+        start = self.__dict__.get("_continued_start") or self.params
+        for name, value in start.items():
             try:
                 array = np.asarray(value, dtype=float)
             except (TypeError, ValueError):
@@ -930,6 +948,10 @@ n_outputs) or list of 2-D arrays
         self : object
             The fitted model.
         """
+        start = continued_start(self, lambda stage: stage._fit_one_step(X, y))
+        return self._fit_from(start, self._fit_one_step, X, y)
+
+    def _fit_one_step(self, X, y):
         self._structure()
         multi = self.__sklearn_tags__().target_tags.multi_output
         X, y = validate_data(
@@ -990,7 +1012,20 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self : object
             The fitted model.
         """
-        return self._fit_simulation(inputs, outputs)
+        start = continued_start(
+            self, lambda stage: stage._fit_simulation(inputs, outputs)
+        )
+        return self._fit_from(start, self._fit_simulation, inputs, outputs)
+
+    def _fit_from(self, start, fit, *args):
+        """``fit(*args)`` starting from ``start`` (a continuation's) or ``params``."""
+        if start is None:
+            return fit(*args)
+        self._continued_start = start
+        try:
+            return fit(*args)
+        finally:
+            self.__dict__.pop("_continued_start", None)
 
     @transactional
     @_fit_context(prefer_skip_nested_validation=True)

@@ -199,7 +199,7 @@ class EMPS(_Benchmark):
             [_pair(d.splits["train"])],
             {"test": "test"},
             # The reference model of the description: symmetric friction, offset.
-            physics=emps_physics(d.dt, max_nfev=60),
+            physics=emps_physics(d.dt),
             segments=(2000, 4000, 8000),
             hybrids=hybrids,
         )

@@ -23,6 +23,7 @@ from functools import partial
 
 import numpy as np
 from sklearn.base import clone
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel
@@ -304,9 +305,19 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     model = system.physics(U_model, Y, ctx.dt, quick=ctx.quick)
     if start is not None and isinstance(getattr(start, "params_", None), dict):
         model.set_params(params=dict(start.params_))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         fit_segments(model, U_model, Y, segment)
+    # A fit that stopped short of convergence is kept, and said so in the run's
+    # record (fits.<model>.warnings, the report); other warnings stay quiet.
+    pieces = "whole records" if segment is None else f"segments of {segment} samples"
+    for w in caught:
+        if issubclass(w.category, ConvergenceWarning):
+            warnings.warn(
+                f"physics fit on {pieces}: {w.message}",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
     return _TransformedInputs(model, system.physics_inputs)
 
 

@@ -25,3 +25,20 @@ def ctrl_c_at_epoch():
     as if trained: a run must still stop and not record that model.
     """
     return CtrlCAtEpoch
+
+
+@pytest.fixture
+def benchmark_script():
+    """A loader of a script of ``benchmarks/`` as a module, by its file name."""
+    import importlib.util
+    from pathlib import Path
+
+    folder = Path(__file__).parents[2] / "benchmarks"
+
+    def load(name):
+        spec = importlib.util.spec_from_file_location(Path(name).stem, folder / name)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load

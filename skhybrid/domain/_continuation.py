@@ -83,21 +83,24 @@ def continuation_stages(continuation, params, fixed):
     ]
 
 
-def continued_start(model, fit_stage):
+def continued_start(model, method, *args):
     """The start of ``model``'s final fit, after its ``continuation`` stages.
 
-    Each stage fits a copy of ``model`` (``fit_stage(copy)``) with the stage's
-    values of the continued parameters, starting from the previous stage's
-    fitted parameters; a stage that stops short of convergence still hands on
-    its parameters, so its ``ConvergenceWarning`` and
-    ``IdentifiabilityWarning`` are not raised (the final fit's are).
+    Each stage fits a copy of ``model`` by its public ``method`` (``"fit"`` or
+    ``"fit_simulation"``, on ``args``), the copy holding the stage's values of
+    the continued parameters and no continuation of its own, and starting
+    from the previous stage's fitted parameters; a stage that stops short of
+    convergence still hands on its parameters, so its ``ConvergenceWarning``
+    and ``IdentifiabilityWarning`` are not raised (the final fit's are).
 
     Parameters
     ----------
     model : StateSpaceModel
         The model about to be fitted.
-    fit_stage : callable
-        ``fit_stage(stage_model)`` fits a stage's copy in place.
+    method : {"fit", "fit_simulation"}
+        The fit the stages run, the one the final fit will run.
+    *args
+        Its data.
 
     Returns
     -------
@@ -116,6 +119,6 @@ def continued_start(model, fit_stage):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             warnings.simplefilter("ignore", IdentifiabilityWarning)
-            fit_stage(stage)
+            getattr(stage, method)(*args)
         start = dict(stage.params_)
     return {**start, **{name: model.params[name] for name in model.continuation}}

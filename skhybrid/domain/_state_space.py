@@ -948,7 +948,7 @@ n_outputs) or list of 2-D arrays
         self : object
             The fitted model.
         """
-        start = continued_start(self, lambda stage: stage._fit_one_step(X, y))
+        start = continued_start(self, "fit", X, y)
         return self._fit_from(start, self._fit_one_step, X, y)
 
     def _fit_one_step(self, X, y):
@@ -1012,9 +1012,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self : object
             The fitted model.
         """
-        start = continued_start(
-            self, lambda stage: stage._fit_simulation(inputs, outputs)
-        )
+        start = continued_start(self, "fit_simulation", inputs, outputs)
         return self._fit_from(start, self._fit_simulation, inputs, outputs)
 
     def _fit_from(self, start, fit, *args):

@@ -22,6 +22,7 @@ from skhybrid.domain._output_error import _LinearOutputError as _LinearOutputErr
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step
 from skhybrid.domain._state_space import StateSpaceModel
+from skhybrid.domain._subspace import subspace_state_space
 
 __all__ = [
     "DomainModel",
@@ -36,4 +37,5 @@ __all__ = [
     "coulomb_viscous_friction",
     "pendulum_step",
     "stribeck_friction",
+    "subspace_state_space",
 ]

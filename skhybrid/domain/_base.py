@@ -453,16 +453,20 @@ class DomainModel(
             spec.lower / p_scale,
             spec.upper / p_scale,
         )
-        result = least_squares(
-            scaled_fun,
-            z0,
-            jac=scaled_jac,
-            bounds=(z_lower, z_upper),
-            loss=self.loss,
-            f_scale=self.f_scale / r_scale,
-            x_scale="jac",
-            **kwargs,
-        )
+        # A trial step can make a simulation grow large but finite; least_squares
+        # then meets an infinite cost, rejects the step and shrinks its region,
+        # so numpy's overflow warning on the way is no news to a user.
+        with np.errstate(over="ignore"):
+            result = least_squares(
+                scaled_fun,
+                z0,
+                jac=scaled_jac,
+                bounds=(z_lower, z_upper),
+                loss=self.loss,
+                f_scale=self.f_scale / r_scale,
+                x_scale="jac",
+                **kwargs,
+            )
         moved = bool(np.any(result.x != z0))
         stationary = _stationary_at(result, z0, z_lower, z_upper)
         # Back to the units of the data and the parameters.

@@ -17,6 +17,7 @@ import pandas as pd
 from nfoursid.nfoursid import NFourSID
 
 from skhybrid.domain._state_space import StateSpaceModel
+from skhybrid.utils._array_api import is_torch
 
 __all__ = ["linear_output", "linear_state_update", "subspace_state_space"]
 
@@ -24,27 +25,59 @@ __all__ = ["linear_output", "linear_state_update", "subspace_state_space"]
 _OWN = ("rhs", "params", "state_names", "observed", "output", "time", "method")
 
 
-def _entries(params, prefix, rows, cols, like, xp):
-    """The matrix ``prefix_i_j`` of ``params``, shape ``(n_rows, rows, cols)``.
+def _matrix(params, prefix, rows, cols, xp):
+    """The matrix ``prefix_i_j`` of ``params``.
 
-    Each entry is a scalar, or one value per row of ``like`` (``vectorized``
-    Jacobians give every row its own parameter set).
+    Shape ``(rows, cols)`` where every entry is a scalar (a fit's trial, a
+    torch training step), ``(n_rows, rows, cols)`` where some entries hold one
+    value per row (``vectorized`` Jacobians give every row its own parameter
+    set).
     """
-    zero = 0.0 * like[:, 0]
-    names = [f"{prefix}_{i}_{j}" for i in range(rows) for j in range(cols)]
-    flat = [params[name] + zero for name in names]
-    return xp.reshape(xp.stack(flat, axis=1), (-1, rows, cols))
+    values = [params[f"{prefix}_{i}_{j}"] for i in range(rows) for j in range(cols)]
+    if is_torch(xp):
+        # A trained parameter is a tensor already (converting it would copy it
+        # and warn); a fixed one is a float.
+        values = [v if hasattr(v, "requires_grad") else xp.asarray(v) for v in values]
+        if all(v.ndim == 0 for v in values):
+            return xp.reshape(xp.stack(values), (rows, cols))
+        stacked = xp.stack(xp.broadcast_tensors(*values), axis=-1)
+        return xp.reshape(stacked, (-1, rows, cols))
+    try:
+        flat = np.asarray(values, dtype=float)
+    except ValueError:  # scalars beside per-row arrays
+        flat = np.stack(np.broadcast_arrays(*values))
+    if flat.ndim == 1:
+        return flat.reshape(rows, cols)
+    return flat.T.reshape(-1, rows, cols)
 
 
-def _vector(params, prefix, size, like, xp):
-    """The vector ``prefix_i`` of ``params``, shape ``(n_rows, size)``."""
-    zero = 0.0 * like[:, 0]
-    return xp.stack([params[f"{prefix}_{i}"] + zero for i in range(size)], axis=1)
+def _times(M, x, xp):
+    """``M x`` for every row of ``x`` (``M`` one matrix, or one per row)."""
+    if is_torch(xp) and M.dtype != x.dtype:  # torch multiplies like with like
+        M = M.to(x.dtype)
+    if M.ndim == 2:
+        return x @ M.T
+    return xp.sum(M * x[:, None, :], axis=2)
+
+
+def _vector(params, prefix, size, xp):
+    """The vector ``prefix_i`` of ``params`` (a matrix of one column, as above)."""
+    M = _matrix(
+        {f"{prefix}_{i}_0": params[f"{prefix}_{i}"] for i in range(size)},
+        prefix,
+        size,
+        1,
+        xp,
+    )
+    return M[..., 0]
 
 
 def _count(params, prefix):
-    """How many entries ``prefix_i`` the parameters hold."""
-    return sum(1 for name in params if name.startswith(prefix + "_"))
+    """How many entries ``prefix_0``, ``prefix_1``, ... the parameters hold."""
+    n = 0
+    while f"{prefix}_{n}" in params:
+        n += 1
+    return n
 
 
 def linear_state_update(x, u, *, xp, **params):
@@ -56,17 +89,16 @@ def linear_state_update(x, u, *, xp, **params):
     :func:`subspace_state_space`'s model.
     """
     n_x, n_u = x.shape[1], u.shape[1]
-    A = _entries(params, "a", n_x, n_x, x, xp)
-    B = _entries(params, "b", n_x, n_u, x, xp)
-    bias = _vector(params, "x_bias", n_x, x, xp)
-    return xp.sum(A * x[:, None, :], axis=2) + xp.sum(B * u[:, None, :], axis=2) + bias
+    A = _matrix(params, "a", n_x, n_x, xp)
+    B = _matrix(params, "b", n_x, n_u, xp)
+    return _times(A, x, xp) + _times(B, u, xp) + _vector(params, "x_bias", n_x, xp)
 
 
 def linear_output(x, *, xp, **params):
     """``y(t) = C x(t) + y_bias`` with ``C`` named ``c_j_i`` in ``params``."""
     n_y = _count(params, "y_bias")
-    C = _entries(params, "c", n_y, x.shape[1], x, xp)
-    return xp.sum(C * x[:, None, :], axis=2) + _vector(params, "y_bias", n_y, x, xp)
+    C = _matrix(params, "c", n_y, x.shape[1], xp)
+    return _times(C, x, xp) + _vector(params, "y_bias", n_y, xp)
 
 
 def _as_record(name, values):

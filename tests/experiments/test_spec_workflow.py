@@ -60,6 +60,14 @@ MACHINE = textwrap.dedent(
         )
 
 
+    def linear_physics(U, Y, dt):
+        """No physics written down: the best linear approximation (N4SID)."""
+        from skhybrid.domain import subspace_state_space
+
+        longest = max(range(len(U)), key=lambda i: len(U[i]))
+        return subspace_state_space(U[longest], Y[longest], order=2, n_init=10)
+
+
     def make_spec(out="out", **kwargs):
         def tests():
             TEST_READS.append((Path(out) / "selection.json").is_file())
@@ -425,3 +433,26 @@ def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
         machine.make_spec(physics_starts={"k": 1.0})
     with pytest.raises(ValueError, match="starts_nfev must be an int >= 1"):
         machine.make_spec(physics_starts=starts, starts_nfev=0)
+
+
+def test_a_black_box_machine_runs_from_its_best_linear_approximation(machine, tmp_path):
+    # physics(U, Y, dt) returning subspace_state_space's model: the whole family,
+    # the state-space hybrid included, trains around the linear model.
+    out = tmp_path / "run"
+    spec = machine.make_spec(out=out, physics=machine.linear_physics)
+    assert spec.has_hybrids()
+    summary = run_system(spec, out, quick=True, seeds=[0])
+    validation = summary["validation_rmse"]["0"]
+    assert np.isfinite(validation["state-space hybrid"])
+    assert np.isfinite(validation["physics"])
+    assert set(summary["physics_params"]["0"]) >= {"a_0_0", "b_1_0", "c_0_1"}
+    test = summary["test_rmse"]["test"]
+    # The linear model misses the cubic spring; the networks around it help.
+    assert np.isfinite(test["physics"]["mean"])
+    best_other = min(v for k, v in validation.items() if k != "physics")
+    assert best_other < validation["physics"]
+    from skhybrid.experiments import load_fitted
+
+    fitted = load_fitted(out, model="physics")
+    u, y = machine.record(400, 7)
+    assert np.all(np.isfinite(fitted.simulate(u, y[:10])))

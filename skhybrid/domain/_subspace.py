@@ -15,6 +15,7 @@ from numbers import Integral
 import numpy as np
 import pandas as pd
 from nfoursid.nfoursid import NFourSID
+from nfoursid.utils import Utils
 
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.utils._array_api import is_torch
@@ -122,6 +123,47 @@ def _as_record(name, values):
     return array
 
 
+def _n4sid(U, Y, order, block_rows):
+    """``A, B, C`` (with ``D = 0``) and the unconstrained ``D`` of one record.
+
+    ``nfoursid`` builds the block Hankel matrices and their QR decomposition
+    (PO-MOESP); the state sequence is then read from the observability
+    estimate by a thin SVD (``nfoursid``'s own takes the full one, whose
+    ``(n_times, n_times)`` factor does not fit in memory beyond some ten
+    thousand samples), and ``[A B]`` and ``C`` are its least-squares fits with
+    no direct feedthrough.
+    """
+    n_u, n_y = U.shape[1], Y.shape[1]
+    frame = pd.DataFrame(
+        np.hstack([U, Y]),
+        columns=[f"u{k}" for k in range(n_u)] + [f"y{j}" for j in range(n_y)],
+    )
+    fit = NFourSID(
+        frame,
+        output_columns=[f"y{j}" for j in range(n_y)],
+        input_columns=[f"u{k}" for k in range(n_u)],
+        num_block_rows=block_rows,
+    )
+    fit.subspace_identification()
+    past = np.vstack(
+        [
+            Utils.block_hankel_matrix(U, block_rows),
+            Utils.block_hankel_matrix(Y, block_rows),
+        ]
+    )
+    observability = fit.R32 @ np.linalg.pinv(fit.R22) @ past
+    _, singular, vh = np.linalg.svd(observability, full_matrices=False)
+    # The states at samples block_rows .. n_times - 1, one column each.
+    X = (np.sqrt(singular[:order])[:, None] * vh[:order])[:, :-1]
+    now, later = X[:, :-1].T, X[:, 1:].T
+    u_now = U[block_rows : block_rows + len(now)]
+    y_now = Y[block_rows : block_rows + len(now)]
+    AB = np.linalg.lstsq(np.hstack([now, u_now]), later, rcond=None)[0].T
+    C = np.linalg.lstsq(now, y_now, rcond=None)[0].T
+    D = np.linalg.lstsq(np.hstack([now, u_now]), y_now, rcond=None)[0].T[:, order:]
+    return AB[:, :order], AB[:, order:], C, D
+
+
 def subspace_state_space(inputs, outputs, order, *, block_rows=None, **kwargs):
     """A linear state-space model of ``order`` states, started from a subspace fit.
 
@@ -138,8 +180,10 @@ def subspace_state_space(inputs, outputs, order, *, block_rows=None, **kwargs):
     learn the nonlinearity around it.
 
     The model has no direct feedthrough (``D = 0``): a sampled system's output
-    answers its input a sample later. The subspace fit's ``D`` is dropped, with
-    a warning where it carries more than 10 % of the outputs' variation.
+    answers its input a sample later. ``A``, ``B`` and ``C`` are fitted so, with
+    a warning where a ``D`` would carry more than 10 % of the outputs'
+    variation. The N4SID's state sequence is read by a thin SVD, so a record of
+    100,000 samples takes seconds and little memory.
 
     Parameters
     ----------
@@ -184,7 +228,7 @@ def subspace_state_space(inputs, outputs, order, *, block_rows=None, **kwargs):
     -----
     UserWarning
         Where the subspace estimate is unstable (a pole on or outside the unit
-        circle: a free run from it grows) or its dropped ``D`` mattered.
+        circle: a free run from it grows) or a ``D`` would have mattered.
 
     See Also
     --------
@@ -245,21 +289,7 @@ def subspace_state_space(inputs, outputs, order, *, block_rows=None, **kwargs):
         )
     u_mean, y_mean = U.mean(axis=0), Y.mean(axis=0)
     Uc, Yc = U - u_mean, Y - y_mean
-    frame = pd.DataFrame(
-        np.hstack([Uc, Yc]),
-        columns=[f"u{k}" for k in range(n_u)] + [f"y{j}" for j in range(n_y)],
-    )
-    fit = NFourSID(
-        frame,
-        output_columns=[f"y{j}" for j in range(n_y)],
-        input_columns=[f"u{k}" for k in range(n_u)],
-        num_block_rows=int(block_rows),
-    )
-    fit.subspace_identification()
-    system, _ = fit.system_identification(rank=order)
-    A, B, C, D = (
-        np.asarray(m, dtype=float) for m in (system.a, system.b, system.c, system.d)
-    )
+    A, B, C, D = _n4sid(Uc, Yc, order, int(block_rows))
     radius = float(np.max(np.abs(np.linalg.eigvals(A))))
     if radius >= 1.0:
         warnings.warn(
@@ -272,9 +302,9 @@ def subspace_state_space(inputs, outputs, order, *, block_rows=None, **kwargs):
     share = np.linalg.norm(Uc @ D.T) / max(np.linalg.norm(Yc), np.finfo(float).tiny)
     if share > 0.1:
         warnings.warn(
-            f"The subspace fit's direct feedthrough D carries {share:.0%} of the "
-            "outputs' variation and is dropped (the model has D = 0); "
-            "fit_simulation refits A, B and C without it.",
+            f"A direct feedthrough D would carry {share:.0%} of the outputs' "
+            "variation; the model has none (D = 0), so its outputs answer the "
+            "inputs a sample late.",
             UserWarning,
             stacklevel=2,
         )

@@ -144,3 +144,15 @@ def test_bad_records_are_named():
         subspace_state_space([u, u], u, 2)
     with pytest.raises(ValueError, match=r"got shape \(300, 1, 1\)"):
         subspace_state_space(u[:, :, None], u, 2)
+
+
+def test_a_long_record_fits_in_little_memory():
+    # A full SVD of the observability estimate would need a (n, n) factor:
+    # 80 GB at 100,000 samples. The thin one needs a few megabytes.
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((100_000, 1))
+    y = np.zeros((100_000, 1))
+    for t in range(1, 100_000):
+        y[t] = 0.95 * y[t - 1] + u[t - 1, 0]
+    model = subspace_state_space(u, y, 1)
+    assert model.params["a_0_0"] == pytest.approx(0.95, abs=1e-6)

@@ -5,6 +5,8 @@ import numbers
 import numpy as np
 from scipy.signal import resample_poly
 
+from skhybrid.utils._validation import as_columns
+
 __all__ = ["band_limited_inputs"]
 
 
@@ -77,14 +79,7 @@ def band_limited_inputs(inputs, n_points=3):
         )
     if n_points < 2:
         raise ValueError(f"n_points must be at least 2; got {n_points}.")
-    u = np.asarray(inputs, dtype=float)
-    if u.ndim == 1:
-        u = u[:, None]
-    if u.ndim != 2:
-        raise ValueError(
-            f"inputs must have shape (n_times,) or (n_times, n_inputs); got shape "
-            f"{u.shape}."
-        )
+    u = as_columns(inputs, "inputs", columns="n_inputs")
     if len(u) < 2:
         raise ValueError(
             f"inputs must hold at least 2 samples to interpolate; got {len(u)}."

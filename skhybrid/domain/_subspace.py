@@ -19,6 +19,7 @@ from nfoursid.utils import Utils
 
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.utils._array_api import is_torch
+from skhybrid.utils._validation import as_columns
 
 __all__ = ["linear_output", "linear_state_update", "subspace_state_space"]
 
@@ -110,14 +111,7 @@ def _as_record(name, values):
             f"(n_times, n_columns)), not a list of {len(values)} records; pass "
             "the longest record, then fit_simulation on all of them."
         )
-    array = np.asarray(values, dtype=float)
-    if array.ndim == 1:
-        array = array[:, None]
-    if array.ndim != 2:
-        raise ValueError(
-            f"{name} must have shape (n_times,) or (n_times, n_columns); got shape "
-            f"{array.shape}."
-        )
+    array = as_columns(values, name)
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} holds NaN or infinite values.")
     return array

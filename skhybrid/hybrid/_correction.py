@@ -26,6 +26,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import simulate
+from skhybrid.utils._validation import as_columns
 
 __all__ = []  # private: used by skhybrid.experiments' measured zoo
 
@@ -51,15 +52,7 @@ def _check_simulate_options(estimator, init, n_samples, return_std, supported):
 
 
 def _as_2d(a, name):
-    a = np.asarray(a, dtype=float)
-    if a.ndim == 1:
-        a = a[:, None]
-    if a.ndim != 2:
-        raise ValueError(
-            f"{name} must be of shape (n_times,) or (n_times, n_columns); got an "
-            f"array of shape {a.shape}."
-        )
-    return a
+    return as_columns(a, name)
 
 
 def _as_records(inputs, outputs):

@@ -166,11 +166,11 @@ class CascadedTanks(_Benchmark):
             [_pair(d.splits["train"])],
             {"test": "test"},
             # Level units are volts of the lower sensor; the upper tank is latent.
-            # Run to convergence (143 evaluations on the fitting part): stopped
-            # at 100, the fit ended where the BLAS kernel's rounding led it
-            # (validation 0.2698 or 0.2693 V), converged at 0.2668 on every
-            # kernel tried (issue 24).
-            physics=tanks_physics(d.dt, max_nfev=400),
+            # Run to convergence (tanks_physics's max_nfev=400; 143 evaluations
+            # on the fitting part): stopped at 100, the fit ended where the BLAS
+            # kernel's rounding led it (validation 0.2698 or 0.2693 V), converged
+            # at 0.2668 on every kernel tried (issue 24).
+            physics=tanks_physics(d.dt),
             segments=(None,),
             # Issue 24, chosen on the validation tail (seeds 0-2): sub-sequences
             # of 200 samples, one every 4, of the one record left uncut.

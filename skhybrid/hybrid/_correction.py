@@ -51,10 +51,6 @@ def _check_simulate_options(estimator, init, n_samples, return_std, supported):
         )
 
 
-def _as_2d(a, name):
-    return as_columns(a, name)
-
-
 def _as_records(inputs, outputs):
     """One record ``(u, y)``, or lists of records, as two lists of 2-D arrays."""
     if isinstance(inputs, (list, tuple)):
@@ -63,10 +59,10 @@ def _as_records(inputs, outputs):
                 "inputs and outputs must both be one record or lists of as many "
                 f"records; got {type(inputs).__name__} and {type(outputs).__name__}."
             )
-        U = [_as_2d(u, f"inputs[{i}]") for i, u in enumerate(inputs)]
-        Y = [_as_2d(y, f"outputs[{i}]") for i, y in enumerate(outputs)]
+        U = [as_columns(u, f"inputs[{i}]") for i, u in enumerate(inputs)]
+        Y = [as_columns(y, f"outputs[{i}]") for i, y in enumerate(outputs)]
     else:
-        U, Y = [_as_2d(inputs, "inputs")], [_as_2d(outputs, "outputs")]
+        U, Y = [as_columns(inputs, "inputs")], [as_columns(outputs, "outputs")]
     for i, (u, y) in enumerate(zip(U, Y, strict=True)):
         if len(u) != len(y):
             raise ValueError(
@@ -311,7 +307,7 @@ list of them
             ``physics_outputs`` plus the correction.
         """
         check_is_fitted(self)
-        u = _as_2d(inputs, "inputs")
+        u = as_columns(inputs, "inputs")
         X = _windows([physics_outputs, *u.T], self.n_steps)
         return np.ravel(physics_outputs) + np.ravel(self.model_.predict(X))
 

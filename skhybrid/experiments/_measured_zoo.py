@@ -489,21 +489,23 @@ def choose_and_refit(model, ctx, deps):
     validation_fit : object or None
         The chosen candidate's fit on the first 75 %.
     selection : dict
-        Validation RMSE of every candidate (official units), the choice and on
-        what the quoted model was fitted.
+        Validation RMSE of every candidate (official units), the choice, on
+        what the quoted model was fitted and, under ``errors``, why each
+        candidate whose fit failed did (its exception's type and message).
     """
     U, Y, n_init = ctx.U, ctx.Y, ctx.n_init
     (u_a, y_a), (u_b, y_b) = _tail_split(U, Y)
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
     on_part = {k: d["validation_fit"] for k, d in deps.items()}
-    scores, fitted = {}, {}
+    scores, fitted, errors = {}, {}, {}
     for key, candidate in candidates.items():
         t0 = time.perf_counter()
         try:
             fit = model.fit(candidate, u_a, y_a, ctx, on_part, None)
         except model.fit_errors as exc:
             scores[key] = float("inf")
+            errors[str(key)] = f"{type(exc).__name__}: {exc}"
             logger.info("%s %s: %s", ctx.label, key, exc)
             continue
         scores[key] = _score(fit, u_b, y_b, model.score_init(candidate, n_init))
@@ -533,6 +535,8 @@ def choose_and_refit(model, ctx, deps):
         ),
         **model.notes,
     }
+    if errors:
+        selection["errors"] = errors
     if isinstance(candidates[best], dict):
         selection["settings"] = {k: repr(v) for k, v in candidates[best].items()}
     return chosen, validation_fit, selection

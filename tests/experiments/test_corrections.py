@@ -177,6 +177,8 @@ def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
     assert on_part.level == 1.9 and on_part.fitted_on == 480
     assert selection["level"] == 1.9
     assert selection["validation_rmse_by_candidate"]["bad"] == float("inf")
+    # Why the failed candidate failed is kept in the run folder's record.
+    assert selection["errors"] == {"bad": "FloatingPointError: diverged"}
     assert_allclose(selection["validation_rmse"], EMPS.scale * 0.1)
     if refit:
         assert chosen.fitted_on == 640 and calls[-1] == (1.9, 640, on_part)

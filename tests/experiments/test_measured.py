@@ -104,6 +104,7 @@ def test_tanks_overflow_caps_both_levels():
         "k4": 0.5,
         "k5": 0.0,
         "k6": 0.0,
+        "u0": 0.0,
         "x1max": 3.0,
         "kof": 0.5,
         "y_offset": 0.0,
@@ -125,6 +126,38 @@ def test_tanks_overflow_caps_both_levels():
     # The lower tank's sensor clips at 10 V.
     assert tanks_output(np.array([[1.0, 50.0]]), xp=np)[0, 0] == 10.0
     assert tanks_physics(4.0).n_init == 50
+
+
+def test_tanks_pump_inflow_is_affine_and_levels_below_an_outlet_keep_gradients():
+    torch = pytest.importorskip("torch")
+    p = {k: v for k, v in tanks_physics(4.0).params.items()}
+    p.update(k1=0.05, k2=0.05, k5=0.0, k6=0.0, u0=2.0, y_offset=3.0)
+    # Below u0 the pump's net flow is negative: the upper tank drains faster
+    # than its outlet alone would drain it.
+    x = np.array([[4.0, 5.0], [4.0, 5.0]])
+    u = np.array([[1.0], [2.0]])
+    nxt = tanks(x, u, xp=np, **p)
+    assert nxt[0, 0] < nxt[1, 0] < 4.0
+    # A lower level below its outlet (z < y_offset) and an empty upper tank:
+    # the square roots' gradients are finite (a NaN here made a hybrid's
+    # training diverge).
+    xt = torch.tensor([[0.0, 2.5]], dtype=torch.float64, requires_grad=True)
+    params = {
+        k: torch.tensor(float(v), dtype=torch.float64, requires_grad=True)
+        for k, v in p.items()
+        if k not in ("dt", "n_sub")
+    }
+    out = tanks(
+        xt,
+        torch.tensor([[1.0]], dtype=torch.float64),
+        xp=torch,
+        dt=4.0,
+        n_sub=4,
+        **params,
+    )
+    out.sum().backward()
+    grads = [xt.grad] + [v.grad for v in params.values()]
+    assert all(bool(torch.isfinite(g).all()) for g in grads)
 
 
 @pytest.mark.parametrize("intersample", sorted(INTERSAMPLE))

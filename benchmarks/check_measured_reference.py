@@ -33,25 +33,27 @@ import sys
 from pathlib import Path
 
 #: docs/experiments.md, "Reference results, sealed, after the state-space hybrid's fix"
-#: (the tanks and the EMPS: "... the EMPS's continued fit, the tanks' converged
-#: fit"; the friction damper: "... with the Silverbox's hybrid trained longer"; the
-#: Silverbox: "... the Silverbox's input between samples"; the
+#: (the tanks: "... the tanks' pump"; the EMPS: "... the EMPS's continued fit,
+#: the tanks' converged fit"; the friction damper: "... with the Silverbox's
+#: hybrid trained longer"; the Silverbox: "... the Silverbox's input between
+#: samples"; the
 #: Wiener-Hammerstein circuit: "... block-structured physics"; the coupled
 #: drives: "... the family's hybrid on short records"):
 #: system -> (chosen model, or the models chosen at the seeds, {split: (mean, min,
 #: max)}), official units; the figures are those of each seed's chosen model.
 REFERENCE = {
-    # Physics + dense at every seed, the physics fitted to convergence (issue 24,
-    # "the EMPS's continued fit, the tanks' converged fit").
+    # Physics + dense at seeds 0 and 2, physics + linear at seed 1, the pump's
+    # inflow affine in its voltage (issue 24, "the tanks' pump, chosen on
+    # validation, worse on test").
     "cascaded-tanks": (
-        "physics + dense",
+        {"physics + dense", "physics + linear"},
         {
-            "test": (0.2256, 0.2210, 0.2294),
-            "test_original_protocol": (0.2236, 0.2210, 0.2258),
+            "test": (0.3284, 0.3270, 0.3291),
+            "test_original_protocol": (0.3295, 0.3290, 0.3299),
         },
     ),
     # The state-space hybrid at its starting physics, which is fitted through a
-    # smoother friction first (issue 24, the same section).
+    # smoother friction first (issue 24, "the EMPS's continued fit").
     "emps": ("state-space hybrid", {"test": (8.946, 8.946, 8.946)}),
     # Seeds 0 and 1 choose the state-space hybrid, seed 2 the ensemble (issue
     # 24, the physics reading its band-limited input between samples).

@@ -21,6 +21,7 @@ from skhybrid.domain._linear import LinearStateSpaceModel
 from skhybrid.domain._output_error import _LinearOutputError as _LinearOutputError
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step
+from skhybrid.domain._starts import random_starts
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.domain._subspace import subspace_state_space
 
@@ -36,6 +37,7 @@ __all__ = [
     "check_identifiability",
     "coulomb_viscous_friction",
     "pendulum_step",
+    "random_starts",
     "stribeck_friction",
     "subspace_state_space",
 ]

@@ -83,7 +83,7 @@ def continuation_stages(continuation, params, fixed):
     ]
 
 
-def continued_start(model, method, *args):
+def continued_start(model, method, *args, base=None):
     """The start of ``model``'s final fit, after its ``continuation`` stages.
 
     Each stage fits a copy of ``model`` by its public ``method`` (``"fit"`` or
@@ -101,6 +101,9 @@ def continued_start(model, method, *args):
         The fit the stages run, the one the final fit will run.
     *args
         Its data.
+    base : dict or None, default=None
+        The first stage's start (a start chosen among several), else
+        ``model.params``.
 
     Returns
     -------
@@ -111,10 +114,13 @@ def continued_start(model, method, *args):
     stages = continuation_stages(model.continuation, model.params, model.fixed)
     if not stages:
         return None
-    start = dict(model.params)
+    start = dict(base if base is not None else model.params)
     for values in stages:
         stage = clone(model).set_params(
-            params={**start, **values}, continuation=None, noise_model=None
+            params={**start, **values},
+            continuation=None,
+            starts=None,
+            noise_model=None,
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)

@@ -19,6 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
+from skhybrid.domain._starts import check_starts, short_fit_start
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
@@ -202,6 +203,19 @@ default=None
         every sequence has one value per stage. ``fit`` and ``fit_simulation``
         run the stages on the same data, each with ``max_nfev`` evaluations;
         only the final fit warns when it does not converge.
+    starts : list of dict, or None, default=None
+        Other starts of the fit, each a dict of free parameters' values that
+        override ``params``: ``fit`` and ``fit_simulation`` first fit from
+        ``params`` and from each start with ``starts_nfev`` evaluations, then
+        fit from the parameters of the short fit with the lowest cost (then
+        through ``continuation``, if given). For a physics whose fit can stop
+        in a local minimum from a start only a factor of two or three off (a
+        latent state's level, an outlet's height); draw starts with
+        :func:`~skhybrid.domain.random_starts`. The short fits' warnings are
+        not raised, and a short fit that fails (diverges, overflows) drops its
+        start.
+    starts_nfev : int, default=15
+        Residual evaluations of each short fit of ``starts``.
 
     Attributes
     ----------
@@ -276,6 +290,8 @@ default=None
         "vectorized": ["boolean"],
         "noise_model": [HasMethods(["fit", "sample"]), None],
         "continuation": [dict, None],
+        "starts": [list, tuple, None],
+        "starts_nfev": [Interval(Integral, 1, None, closed="left")],
     }
 
     def __init__(
@@ -309,6 +325,8 @@ default=None
         vectorized=False,
         noise_model=None,
         continuation=None,
+        starts=None,
+        starts_nfev=15,
     ):
         super().__init__(
             fixed=fixed,
@@ -340,6 +358,8 @@ default=None
         self.vectorized = vectorized
         self.noise_model = noise_model
         self.continuation = continuation
+        self.starts = starts
+        self.starts_nfev = starts_nfev
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -948,8 +968,7 @@ n_outputs) or list of 2-D arrays
         self : object
             The fitted model.
         """
-        start = continued_start(self, "fit", X, y)
-        return self._fit_from(start, self._fit_one_step, X, y)
+        return self._fit_from(self._fit_start("fit", X, y), self._fit_one_step, X, y)
 
     def _fit_one_step(self, X, y):
         self._structure()
@@ -1012,11 +1031,22 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self : object
             The fitted model.
         """
-        start = continued_start(self, "fit_simulation", inputs, outputs)
+        start = self._fit_start("fit_simulation", inputs, outputs)
         return self._fit_from(start, self._fit_simulation, inputs, outputs)
 
+    def _fit_start(self, method, *args):
+        """Where ``method``'s fit starts: after the ``starts``, then the continuation.
+
+        None where neither applies (the fit starts from ``params``).
+        """
+        self._validate_params()
+        check_starts(self.starts, self.params, self.fixed)
+        chosen = short_fit_start(self, method, *args)
+        continued = continued_start(self, method, *args, base=chosen)
+        return continued if continued is not None else chosen
+
     def _fit_from(self, start, fit, *args):
-        """``fit(*args)`` starting from ``start`` (a continuation's) or ``params``."""
+        """``fit(*args)`` from ``start`` (after starts, continuation) or ``params``."""
         if start is None:
             return fit(*args)
         self._continued_start = start

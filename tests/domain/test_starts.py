@@ -1,0 +1,153 @@
+"""StateSpaceModel(starts=...), random_starts: the fit goes on from the best start."""
+
+import warnings
+
+import numpy as np
+import pytest
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils._param_validation import InvalidParameterError
+
+from skhybrid.domain import StateSpaceModel, random_starts
+
+
+def ring(x, u, *, xp, w, r):
+    """A free oscillation: the state turns by ``w`` a step and shrinks by ``r``."""
+    c, s = x[:, 0], x[:, 1]
+    return xp.stack(
+        [r * (xp.cos(w) * c - xp.sin(w) * s), r * (xp.sin(w) * c + xp.cos(w) * s)],
+        axis=1,
+    )
+
+
+def _model(params, **kwargs):
+    kwargs.setdefault("fixed", ("r",))
+    kwargs.setdefault("bounds", {"w": (0.01, 3.0)})
+    return StateSpaceModel(
+        ring,
+        params,
+        state_names=["cos", "sin"],
+        observed=["cos"],
+        time="discrete",
+        n_init=10,
+        vectorized=True,
+        **kwargs,
+    )
+
+
+@pytest.fixture(scope="module")
+def record():
+    rng = np.random.default_rng(0)
+    u = np.zeros((300, 0))
+    truth = _model({"w": 0.3, "r": 0.998}, fixed=("w", "r"))
+    truth.fit_simulation(u, np.zeros((300, 1)))
+    y = truth.simulate_from_state(u, [1.0, 0.0])
+    return u, y + 0.01 * rng.standard_normal(y.shape)
+
+
+def _fit(model, u, y):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return model.fit_simulation(u, y)
+
+
+START = {"w": 0.36, "r": 0.998}  # 1.2x the truth's frequency
+STARTS = [{"w": 0.15}, {"w": 0.31}, {"w": 1.0}]
+
+
+def test_a_start_a_fifth_off_stops_where_starts_find_the_truth(record):
+    u, y = record
+    direct = _fit(_model(START), u, y)
+    # The simulation error of a free oscillation is many-valleyed in its
+    # frequency: from 1.2x the truth the fit stops in the next valley.
+    assert abs(direct.params_["w"] - 0.3) > 0.05 and direct.rmse_ > 0.5
+    with warnings.catch_warnings():
+        # The short fits stop short of convergence; only the final fit warns.
+        warnings.simplefilter("error", ConvergenceWarning)
+        fitted = _model(START, starts=STARTS).fit_simulation(u, y)
+    assert fitted.params_["w"] == pytest.approx(0.3, abs=1e-3)
+    assert fitted.rmse_ < 0.012
+    # The model's own parameters are unchanged: the starts only move the fit.
+    assert fitted.params == START
+
+
+def test_the_fit_goes_on_from_the_best_short_fit(record):
+    u, y = record
+    model = _model(START, starts=STARTS, starts_nfev=3)
+    fitted = _fit(model, u, y)
+    shorts = [_fit(_model({**START, **s}, max_nfev=3), u, y) for s in [{}, *STARTS]]
+    best = min(shorts, key=lambda m: m.result_.cost)
+    by_hand = _fit(_model({**START, **best.params_}), u, y)
+    assert fitted.params_["w"] == pytest.approx(by_hand.params_["w"], rel=1e-12)
+    # The one-step fit runs the same starts.
+    X = np.column_stack([y[:-1], y[1:]])[:-1]
+    one_step = _model(START, starts=STARTS, n_steps=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        one_step.fit(X, y[2:, 0])
+    assert np.isfinite(one_step.params_["w"])
+
+
+def test_a_start_whose_short_fit_fails_is_dropped(record):
+    u, y = record
+    # r is free here and a start at 1e3 overflows the free run.
+    fitted = _fit(
+        _model(START, fixed=(), bounds=None, starts=[{"r": 1e3}, {"w": 0.31}]), u, y
+    )
+    assert fitted.params_["w"] == pytest.approx(0.3, abs=1e-3)
+
+
+def test_starts_compose_with_a_continuation(record):
+    u, y = record
+    fitted = _fit(
+        _model(START, fixed=("r",), starts=STARTS, continuation={"r": [0.99]}), u, y
+    )
+    assert fitted.params_["w"] == pytest.approx(0.3, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "starts, error, match",
+    [
+        ({"w": 0.3}, InvalidParameterError, "The 'starts' parameter"),
+        ([], TypeError, "starts must be a non-empty list"),
+        ([0.3], TypeError, "every entry of starts must be a dict"),
+        ([{"r": 0.9}], ValueError, "starts names 'r', which is not a free"),
+        ([{"q": 0.9}], ValueError, "starts names 'q'"),
+        ([{"w": float("nan")}], ValueError, r"starts\[...\]\['w'\] must be a finite"),
+        ([{"w": "fast"}], ValueError, r"got 'fast'"),
+    ],
+)
+def test_bad_starts_are_named(record, starts, error, match):
+    u, y = record
+    with pytest.raises(error, match=match):
+        _model(START, starts=starts).fit_simulation(u, y)
+
+
+def test_bad_starts_nfev_is_named(record):
+    u, y = record
+    with pytest.raises(InvalidParameterError, match="starts_nfev"):
+        _model(START, starts=STARTS, starts_nfev=0).fit_simulation(u, y)
+
+
+def test_random_starts_lie_within_the_factor_and_the_bounds():
+    model = StateSpaceModel(
+        ring,
+        {"w": 0.5, "r": 0.998, "z": 0.0},
+        state_names=["cos", "sin"],
+        fixed=("r",),
+        bounds={"w": (0.3, 3.0)},
+        time="discrete",
+    )
+    starts = random_starts(model, 200, factor=2.0, random_state=0)
+    assert len(starts) == 200 and all(sorted(s) == ["w", "z"] for s in starts)
+    w = np.array([s["w"] for s in starts])
+    assert w.min() >= 0.3 and w.max() <= 1.0 and w.min() == 0.3  # clipped
+    assert np.ptp(np.log(w[w > 0.3])) > 0.5  # spread, not one value
+    assert all(s["z"] == 0.0 for s in starts)
+    assert starts == random_starts(model, 200, factor=2.0, random_state=0)
+    assert starts != random_starts(model, 200, factor=2.0, random_state=1)
+    with pytest.raises(
+        ValueError, match="n_starts must be an int >= 1; got n_starts=0"
+    ):
+        random_starts(model, 0)
+    with pytest.raises(ValueError, match="factor must be a finite number > 1"):
+        random_starts(model, 3, factor=1.0)

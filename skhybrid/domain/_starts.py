@@ -2,12 +2,12 @@
 
 A simulation-error fit of a physics with a latent state can stop in a local
 minimum from a start well within a factor of two or three of the truth (on the
-cascaded tanks' own structure, simulated, 2 of 16 starts drawn within a factor
-2.2 did). The minima it stops in fit the records visibly worse, and a short fit
-from each of several starts already ranks them: the final fit continues from
-the start whose short fit is best. :class:`~skhybrid.domain.StateSpaceModel`'s
-``starts`` runs this before its fit; :func:`random_starts` draws starts around a
-model's parameters.
+cascaded tanks' own structure, simulated, some starts drawn within a factor
+2.2 do: ``benchmarks/bench_rough_start.py``). The minima it stops in fit the
+records visibly worse, and a short fit from each of several starts already
+ranks them: the final fit continues from the start whose short fit is best.
+:class:`~skhybrid.domain.StateSpaceModel`'s ``starts`` runs this before its
+fit; :func:`random_starts` draws starts around a model's parameters.
 """
 
 import numbers
@@ -169,7 +169,7 @@ def short_fit_start(model, method, *args):
     return {**model.params, **{k: fitted[k] for k in model.params if k in fitted}}
 
 
-def random_starts(model, n_starts, *, factor=3.0, random_state=None):
+def random_starts(model, n_starts, *, factor=5.0, random_state=None):
     """Starts drawn around a model's free parameters, for its ``starts``.
 
     Each free parameter's value is multiplied by a factor drawn log-uniformly
@@ -182,8 +182,10 @@ def random_starts(model, n_starts, *, factor=3.0, random_state=None):
         The model; its ``params``, ``fixed`` and ``bounds`` are read.
     n_starts : int
         Number of starts.
-    factor : float, default=3.0
-        How far a start may lie from ``params``, as a ratio (> 1).
+    factor : float, default=5.0
+        How far a start may lie from ``params``, as a ratio (> 1). Wide on
+        purpose: from a start in a wrong valley, starts drawn close to it fall
+        back into the same valley.
     random_state : int, RandomState instance or None, default=None
         Seed of the draws.
 

@@ -95,14 +95,15 @@ def rough_start(k):
     }
 
 
-def one(k, data, n_starts, factor):
+def one(k, data, n_starts, factor, starts_nfev=15):
     u_fit, y_fit, u_held, y_held = data
     out = {}
     for label in ("truth",) if k < 0 else ("alone", "starts"):
         m = model(TRUTH if label == "truth" else rough_start(k))
         if label == "starts":
             m.set_params(
-                starts=random_starts(m, n_starts, factor=factor, random_state=k)
+                starts=random_starts(m, n_starts, factor=factor, random_state=k),
+                starts_nfev=starts_nfev,
             )
         t0 = time.perf_counter()
         with warnings.catch_warnings():
@@ -119,12 +120,25 @@ def main():
     parser.add_argument("--rough", type=int, default=16, help="rough starts")
     parser.add_argument("--n-starts", type=int, default=8)
     parser.add_argument("--factor", type=float, default=5.0)
+    parser.add_argument(
+        "--starts-nfev",
+        type=lambda v: None if v == "none" else int(v),
+        default=15,
+        help="evaluations of each start's short fit; 'none': each to convergence",
+    )
+    parser.add_argument(
+        "--only",
+        type=lambda v: [int(k) for k in v.split(",")],
+        default=None,
+        help="comma-separated rough starts to run (default: all of --rough)",
+    )
     parser.add_argument("--n-jobs", type=int, default=2)
     args = parser.parse_args()
+    ks = args.only if args.only is not None else list(range(args.rough))
     data = records()
     results = Parallel(n_jobs=args.n_jobs)(
-        delayed(one)(k, data, args.n_starts, args.factor)
-        for k in [-1, *range(args.rough)]
+        delayed(one)(k, data, args.n_starts, args.factor, args.starts_nfev)
+        for k in [-1, *ks]
     )
     (_, baseline), *results = sorted(results)
     bar = 3 * baseline["truth"][0]

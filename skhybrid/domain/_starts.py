@@ -129,8 +129,9 @@ def short_fit_start(model, method, *args):
     """The parameters ``model``'s fit starts from, after its ``starts``.
 
     The model's own ``params`` and each of its ``starts`` (values that override
-    them) are fitted by ``method`` with ``starts_nfev`` evaluations, without
-    continuation or noise model; their warnings are not raised.
+    them) are fitted by ``method`` with ``starts_nfev`` evaluations (None: the
+    model's own ``max_nfev``, each to convergence), without continuation or
+    noise model; their warnings are not raised.
 
     Parameters
     ----------
@@ -158,7 +159,9 @@ def short_fit_start(model, method, *args):
             starts=None,
             continuation=None,
             noise_model=None,
-            max_nfev=model.starts_nfev,
+            max_nfev=(
+                model.max_nfev if model.starts_nfev is None else model.starts_nfev
+            ),
         )
         for params in candidates
     ]

@@ -214,8 +214,12 @@ default=None
         :func:`~skhybrid.domain.random_starts`. The short fits' warnings are
         not raised, and a short fit that fails (diverges, overflows) drops its
         start.
-    starts_nfev : int, default=15
-        Residual evaluations of each short fit of ``starts``.
+    starts_nfev : int or None, default=15
+        Residual evaluations of each short fit of ``starts``. None fits from
+        every start to convergence (``max_nfev`` each) and keeps the lowest
+        cost: slower by about the number of starts, but the fit then never
+        ends at a higher cost than from ``params`` alone, where a short fit's
+        ranking can pick a start whose valley ends higher.
 
     Attributes
     ----------
@@ -291,7 +295,7 @@ default=None
         "noise_model": [HasMethods(["fit", "sample"]), None],
         "continuation": [dict, None],
         "starts": [list, tuple, None],
-        "starts_nfev": [Interval(Integral, 1, None, closed="left")],
+        "starts_nfev": [Interval(Integral, 1, None, closed="left"), None],
     }
 
     def __init__(

@@ -87,6 +87,15 @@ def test_the_fit_goes_on_from_the_best_short_fit(record):
     assert np.isfinite(one_step.params_["w"])
 
 
+def test_starts_fitted_to_convergence_keep_the_lowest_cost(record):
+    u, y = record
+    fitted = _fit(_model(START, starts=STARTS, starts_nfev=None), u, y)
+    full = [_fit(_model({**START, **s}), u, y) for s in [{}, *STARTS]]
+    best = min(full, key=lambda m: m.result_.cost)
+    assert fitted.result_.cost <= best.result_.cost * (1 + 1e-9)
+    assert fitted.params_["w"] == pytest.approx(best.params_["w"], rel=1e-6)
+
+
 def test_a_start_whose_short_fit_fails_is_dropped(record):
     u, y = record
     # r is free here and a start at 1e3 overflows the free run.

@@ -3,9 +3,11 @@
 A simulation-error fit of a physics with a latent state can stop in a local
 minimum from a start well within a factor of two or three of the truth (on the
 cascaded tanks' own structure, simulated, some starts drawn within a factor
-2.2 do: ``benchmarks/bench_rough_start.py``). The minima it stops in fit the
-records visibly worse, and a short fit from each of several starts already
-ranks them: the final fit continues from the start whose short fit is best.
+2.2 do: ``benchmarks/bench_rough_start.py``). A short fit from each of several
+starts ranks the valleys roughly, and the final fit continues from the start
+whose short fit is best (or, with ``starts_nfev=None``, whose fit to
+convergence is). A lower cost on the fitting records is not always a better
+simulation elsewhere, so the result is judged on validation data.
 :class:`~skhybrid.domain.StateSpaceModel`'s ``starts`` runs this before its
 fit; :func:`random_starts` draws starts around a model's parameters.
 """

@@ -9,13 +9,13 @@ records.
 """
 
 import numbers
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.domain._starts import best_short_fit
 from skhybrid.hybrid import MIN_SUBSEQUENCES
 
 __all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
@@ -184,11 +184,8 @@ def best_start(make, starts, U, Y, *, max_nfev=15):
     """The model of the start whose short simulation-error fit is best.
 
     Several starts, each fitted briefly on the records by the free-run error;
-    the returned model starts from the best one's parameters (the lowest cost,
-    on the records it is fitted on, never on a validation or test record). The
-    short fits are :class:`~skhybrid.domain.StateSpaceModel`'s own ``starts``
-    (:func:`skhybrid.domain._starts.best_short_fit`); here the starts replace
-    the model's parameters rather than adding to them.
+    the returned model starts from the best one's parameters (chosen on the
+    records it is fitted on, never on a validation or test record).
 
     Parameters
     ----------
@@ -206,11 +203,20 @@ def best_start(make, starts, U, Y, *, max_nfev=15):
     model : StateSpaceModel
         Unfitted, its ``params`` the best short fit's.
     """
-    models = [make(start).set_params(max_nfev=max_nfev) for start in starts]
-    best, fits = best_short_fit(models, "fit_simulation", U, Y)
+    best, best_rmse = None, np.inf
+    for start in starts:
+        model = make(start).set_params(max_nfev=max_nfev)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                model.fit_simulation(U, Y)
+            except (ValueError, FloatingPointError, ArithmeticError):
+                continue
+        if np.isfinite(model.rmse_) and model.rmse_ < best_rmse:
+            best, best_rmse = model, model.rmse_
     chosen = make(starts[0])
     if best is not None:
-        chosen.set_params(params=dict(fits[best].params_))
+        chosen.set_params(params=dict(best.params_))
     return chosen
 
 

@@ -596,6 +596,11 @@ def fit_model(name, model, ctx, deps, sink=None):
             if not issubclass(w.category, DeprecationWarning)
         }
     )
+    # A candidate that failed is named where the report lists what went wrong.
+    messages += [
+        f"candidate {key} failed: {reason}"
+        for key, reason in selection.get("errors", {}).items()
+    ]
     extras = {}
     if model.keep_validation_fit and validation_fit is not None:
         extras["validation_fit"] = validation_fit

@@ -16,6 +16,7 @@ from skhybrid.experiments._measured_zoo import (
     ZooModel,
     _tail_split,
     choose_and_refit,
+    fit_model,
 )
 from skhybrid.hybrid._correction import (
     _NARXSimulator,
@@ -154,6 +155,21 @@ def _constant_fit(calls):
         return _Constant(candidate, n)
 
     return fit
+
+
+def test_a_failed_candidate_is_named_in_the_models_warnings():
+    u = np.zeros((400, 1))
+    y = np.full((400, 1), 2.0)
+    ctx = MeasuredContext(EMPS(), [u], [y], 10, 1e-3, True, 0)
+    model = ZooModel(
+        _constant_fit([]),
+        lambda ctx, records: {1.9: 1.9, "bad": "bad"},
+        fit_errors=(FloatingPointError,),
+    )
+    _, out = fit_model("constant", model, ctx, {})
+    assert out["selection"]["chosen"] == 1.9
+    # The report lists a model's warnings: the failure is there too.
+    assert out["warnings"] == ["candidate bad failed: FloatingPointError: diverged"]
 
 
 @pytest.mark.parametrize("refit", [True, False])

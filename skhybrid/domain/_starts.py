@@ -23,12 +23,7 @@ from sklearn.utils import check_random_state
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 
 #: Errors of a short fit that drop its start instead of stopping the fit.
-START_ERRORS = (
-    ValueError,
-    FloatingPointError,
-    ArithmeticError,
-    SimulationDivergedError,
-)
+START_ERRORS = (ValueError, ArithmeticError, SimulationDivergedError)
 
 __all__ = ["best_short_fit", "check_starts", "random_starts"]
 
@@ -71,8 +66,7 @@ def check_starts(starts, params, fixed):
                     f"model (params: {sorted(params)}, fixed: {list(fixed)}); got "
                     f"starts={starts!r}."
                 )
-            array = np.asarray(value, dtype=object)
-            if array.shape != () or not _finite_number(value):
+            if not _finite_number(value):
                 raise ValueError(
                     f"starts[...][{name!r}] must be a finite number; got {value!r}."
                 )
@@ -89,7 +83,7 @@ def _finite_number(value):
 
 
 def best_short_fit(models, method, *args):
-    """Fit each model briefly; the index of the one with the lowest cost.
+    """Fit each model briefly; the fitted one with the lowest cost.
 
     Parameters
     ----------
@@ -102,14 +96,12 @@ def best_short_fit(models, method, *args):
 
     Returns
     -------
-    best : int or None
+    best : DomainModel or None
         None where every short fit failed (an error in ``START_ERRORS``) or
         ended with a cost that is not finite.
-    fits : list
-        The fitted models, None where a fit failed.
     """
-    best, best_cost, fits = None, np.inf, []
-    for i, model in enumerate(models):
+    best, best_cost = None, np.inf
+    for model in models:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             warnings.simplefilter("ignore", IdentifiabilityWarning)
@@ -117,14 +109,12 @@ def best_short_fit(models, method, *args):
             try:
                 getattr(model, method)(*args)
             except START_ERRORS:
-                fits.append(None)
                 continue
-        fits.append(model)
         result = getattr(model, "result_", None)
         cost = 0.0 if result is None else float(result.cost)
         if np.isfinite(cost) and cost < best_cost:
-            best, best_cost = i, cost
-    return best, fits
+            best, best_cost = model, cost
+    return best
 
 
 def short_fit_start(model, method, *args):
@@ -167,10 +157,10 @@ def short_fit_start(model, method, *args):
         )
         for params in candidates
     ]
-    best, fits = best_short_fit(models, method, *args)
+    best = best_short_fit(models, method, *args)
     if best is None:
         return None
-    fitted = fits[best].params_
+    fitted = best.params_
     return {**model.params, **{k: fitted[k] for k in model.params if k in fitted}}
 
 

@@ -19,7 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
-from skhybrid.domain._starts import check_starts, short_fit_start
+from skhybrid.domain._starts import short_fit_start
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
@@ -1043,8 +1043,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
 
         None where neither applies (the fit starts from ``params``).
         """
-        self._validate_params()
-        check_starts(self.starts, self.params, self.fixed)
+        self._validate_params()  # starts_nfev, before the short fits use it
         chosen = short_fit_start(self, method, *args)
         continued = continued_start(self, method, *args, base=chosen)
         return continued if continued is not None else chosen

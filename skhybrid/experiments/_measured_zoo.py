@@ -304,7 +304,11 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     U_model = _model_inputs(system, U)
     model = system.physics(U_model, Y, ctx.dt, quick=ctx.quick)
     if start is not None and isinstance(getattr(start, "params_", None), dict):
+        # The refit continues from the chosen candidate's fit, in the valley
+        # the validation tail judged: its starts are not fitted again.
         model.set_params(params=dict(start.params_))
+        if "starts" in model.get_params(deep=False):
+            model.set_params(starts=None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         fit_segments(model, U_model, Y, segment)

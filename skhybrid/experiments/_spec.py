@@ -9,7 +9,6 @@ records.
 """
 
 import numbers
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,7 +17,7 @@ from sklearn.base import clone
 from skhybrid.domain import StateSpaceModel
 from skhybrid.hybrid import MIN_SUBSEQUENCES
 
-__all__ = ["SystemSpec", "as_records", "best_start", "records_digest"]
+__all__ = ["SystemSpec", "as_records", "records_digest"]
 
 #: The default candidate family's initial horizon of the state-space hybrid
 #: (samples); the grid is this and four times it, kept below the records' length.
@@ -180,44 +179,18 @@ def records_digest(U, Y):
     return h.hexdigest()
 
 
-def best_start(make, starts, U, Y, *, max_nfev=15):
-    """The model of the start whose short simulation-error fit is best.
-
-    Several starts, each fitted briefly on the records by the free-run error;
-    the returned model starts from the best one's parameters (chosen on the
-    records it is fitted on, never on a validation or test record).
-
-    Parameters
-    ----------
-    make : callable
-        ``make(start)`` returns an unfitted :class:`StateSpaceModel`.
-    starts : sequence
-        The starts.
-    U, Y : list of ndarray
-        The records.
-    max_nfev : int, default=15
-        Residual evaluations of each short fit.
-
-    Returns
-    -------
-    model : StateSpaceModel
-        Unfitted, its ``params`` the best short fit's.
-    """
-    best, best_rmse = None, np.inf
-    for start in starts:
-        model = make(start).set_params(max_nfev=max_nfev)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                model.fit_simulation(U, Y)
-            except (ValueError, FloatingPointError, ArithmeticError):
-                continue
-        if np.isfinite(model.rmse_) and model.rmse_ < best_rmse:
-            best, best_rmse = model, model.rmse_
-    chosen = make(starts[0])
-    if best is not None:
-        chosen.set_params(params=dict(best.params_))
-    return chosen
+def _check_takes_starts(physics):
+    """Raise unless ``physics`` takes ``physics_starts``: its own ``starts``, unset."""
+    if "starts" not in physics.get_params(deep=False):
+        raise TypeError(
+            "physics_starts needs a physics that takes starts (a "
+            f"StateSpaceModel); got {type(physics).__name__}."
+        )
+    if physics.starts is not None:
+        raise ValueError(
+            "give the starts on the spec (physics_starts) or on the physics (its "
+            f"starts), not both; the physics has starts={physics.starts!r}."
+        )
 
 
 @dataclass
@@ -294,14 +267,17 @@ class SystemSpec:
     physics_starts : list of dict or None, default=None
         Several starts of the physics' parameters, each a dict of values that
         override its own (``[{"w": 5.0}, {"w": 30.0}]``): a simulation-error fit
-        from a poor start can stop in a local minimum, so each start is fitted
-        briefly (``starts_nfev`` evaluations) on the records the physics is
-        then fitted on, and the physics starts from the best one's parameters
-        (never chosen on a validation or test record). Needs a physics with
-        ``params`` and ``fit_simulation`` (a
-        :class:`~skhybrid.domain.StateSpaceModel`).
+        from a poor start can stop in a local minimum. The physics' ``params``
+        become the first start and its ``starts`` the others
+        (:class:`~skhybrid.domain.StateSpaceModel`'s several starts): each of
+        a segment candidate's fits first fits every start briefly
+        (``starts_nfev`` evaluations) on its segments and goes on from the
+        lowest cost, never chosen on a validation or test record; the refit on
+        the whole records continues from the chosen candidate's fit. Needs a
+        physics that takes ``starts`` and has none of its own.
     starts_nfev : int, default=15
-        Residual evaluations of each start's short fit.
+        Residual evaluations of each start's short fit (the physics'
+        ``starts_nfev``).
     score_from_estimation_start : bool, default=False
         Also score every test record under a second protocol, ``<test>_original
         _protocol``: the free run starts from the initial state estimated on the
@@ -391,11 +367,8 @@ class SystemSpec:
                     "physics_starts must be a non-empty list of dicts of parameter "
                     f"values, or None; got physics_starts={starts!r}."
                 )
-            if not is_factory and not hasattr(physics, "fit_simulation"):
-                raise TypeError(
-                    "physics_starts needs a physics fitted by simulation error (a "
-                    f"StateSpaceModel); got {type(physics).__name__}."
-                )
+            if not is_factory:
+                _check_takes_starts(physics)
         if (
             isinstance(self.starts_nfev, bool)
             or not isinstance(self.starts_nfev, numbers.Integral)
@@ -544,7 +517,8 @@ class SystemSpec:
         Returns
         -------
         physics : estimator
-            Unfitted.
+            Unfitted; with ``physics_starts``, its ``params`` updated by the
+            first start and its ``starts`` the others.
         """
         if callable(self.physics) and not hasattr(self.physics, "get_params"):
             base = self.physics(U, Y, dt)
@@ -552,12 +526,14 @@ class SystemSpec:
             base = clone(self.physics)
         if not self.physics_starts:
             return base
-
-        def make(start):
-            return clone(base).set_params(params={**base.params, **start})
-
-        return best_start(
-            make, list(self.physics_starts), U, Y, max_nfev=self.starts_nfev
+        _check_takes_starts(base)  # a callable's physics is seen only now
+        # The spec's starts replace the physics' parameters: the first is the
+        # model's params, the others its starts (StateSpaceModel's several starts).
+        first, *others = self.physics_starts
+        return base.set_params(
+            params={**base.params, **first},
+            starts=others or None,
+            starts_nfev=self.starts_nfev,
         )
 
     def segment_candidates(self, fit_lengths):

@@ -13,7 +13,6 @@ from skhybrid.experiments._measured_physics import (
     ced_physics,
     friction_damper_physics,
 )
-from skhybrid.experiments._spec import best_start
 
 
 def _oe_record(n, seed, noise=0.0):
@@ -64,28 +63,6 @@ def _ced_truth(dt=0.02, w=25.0):
     model = ced_physics(dt, w=w)
     truth = {"K": 0.9, "tau": 0.15, "w": w, "zeta": 0.2, "tau_f": 0.03}
     return model.set_params(params=truth)
-
-
-def test_best_start_picks_the_start_whose_short_fit_is_best():
-    rng = np.random.default_rng(0)
-    u = np.repeat(rng.uniform(-1, 2, 16), 25)[:, None]
-    truth = _ced_truth()
-    y = truth.fit_simulation(u, np.zeros((len(u), 1))).simulate_from_state(
-        u, [0.0, 0.0, 0.0, 0.0]
-    )
-    made = []
-
-    def make(w):
-        made.append(ced_physics(0.02, w=w))
-        return made[-1]
-
-    chosen = best_start(make, (5.0, 25.0), [u], [y], max_nfev=5)
-    # Both starts were fitted briefly; the one at the true resonance fits
-    # better, and the returned (unfitted) model starts from its parameters.
-    far, near = made[0], made[1]
-    assert near.rmse_ < far.rmse_
-    assert chosen is made[2] and not hasattr(chosen, "params_")
-    assert chosen.params == pytest.approx(near.params_)
 
 
 def test_the_drives_sensor_sees_the_speed_without_its_sign():

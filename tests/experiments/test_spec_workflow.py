@@ -14,6 +14,8 @@ import textwrap
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
 from skhybrid.experiments import SystemSpec, run_system
@@ -416,23 +418,61 @@ def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
     starts = [{"k": 0.05, "c": 3.0}, {"k": 1.5, "c": 0.4}]
     spec = machine.make_spec(physics_starts=starts, starts_nfev=3)
     physics = spec.make_physics(U, Y, machine.DT)
-    # Each start fitted with 3 evaluations: the far one ends worse; the physics
-    # returned is unfitted, its parameters the best short fit's.
+    # The spec's starts become the physics' own: the first replaces its
+    # parameters, the others are its starts, fitted briefly by the model.
+    base = machine.physics().params
+    assert physics.params == {**base, **starts[0]}
+    assert physics.starts == starts[1:] and physics.starts_nfev == 3
+    assert not hasattr(physics, "params_")
+    # Each start fitted with 3 evaluations: the far one ends worse, and the
+    # physics' fit goes on from the better one.
     short = [
         machine.physics()
-        .set_params(params={**machine.physics().params, **st}, max_nfev=3)
+        .set_params(params={**base, **st}, max_nfev=3)
         .fit_simulation(U, Y)
         for st in starts
     ]
-    best = int(np.argmin([m.rmse_ for m in short]))
-    assert best == 1
-    assert physics.params == pytest.approx(short[best].params_)
-    assert not hasattr(physics, "params_")
+    assert short[1].result_.cost < short[0].result_.cost
+    # Kept short (5 evaluations), the final fit shows where it started.
+    from_best = machine.physics().set_params(params=dict(short[1].params_), max_nfev=5)
+    alone = machine.physics().set_params(params={**base, **starts[0]}, max_nfev=5)
+    physics.set_params(max_nfev=5)
+    for model in (from_best, alone, physics):
+        with pytest.warns(ConvergenceWarning):
+            model.fit_simulation(U, Y)
+    assert physics.params_ == pytest.approx(from_best.params_)
+    assert physics.rmse_ < alone.rmse_
 
     with pytest.raises(TypeError, match="physics_starts must be a non-empty list"):
         machine.make_spec(physics_starts={"k": 1.0})
     with pytest.raises(ValueError, match="starts_nfev must be an int >= 1"):
         machine.make_spec(physics_starts=starts, starts_nfev=0)
+    with pytest.raises(ValueError, match="not both; the physics has starts="):
+        machine.make_spec(
+            physics=machine.physics().set_params(starts=[{"k": 1.0}]),
+            physics_starts=starts,
+        )
+    # A callable's physics is seen when it is made.
+    ridge = machine.make_spec(physics=lambda U, Y, dt: Ridge(), physics_starts=starts)
+    with pytest.raises(TypeError, match="needs a physics that takes starts"):
+        ridge.make_physics(U, Y, machine.DT)
+
+
+def test_the_refit_continues_from_the_chosen_fit_without_the_starts(machine, tmp_path):
+    import joblib
+
+    out = tmp_path / "run"
+    starts = [{"k": 0.05, "c": 3.0}, {"k": 1.5, "c": 0.4}]
+    spec = machine.make_spec(out=out, physics_starts=starts, hybrids=None)
+    run_system(spec, out, quick=True, seeds=[0])
+    folder = out / "models" / "toy-machine-seed-0"
+    chosen = joblib.load(folder / "physics.validation-fit.joblib").estimator
+    refit = joblib.load(folder / "physics.joblib").estimator
+    # The segment candidates ran the starts; the refit on the whole records
+    # started from the chosen candidate's fit and ran none.
+    assert chosen.starts == starts[1:]
+    assert refit.starts is None
+    assert refit.params == pytest.approx(chosen.params_)
 
 
 def test_a_black_box_machine_runs_from_its_best_linear_approximation(machine, tmp_path):

@@ -453,7 +453,7 @@ default=None
                 f"got params={self.params!r}."
             )
         out = {}
-        start = self.__dict__.get("_continued_start") or self.params
+        start = self.__dict__.get("_chosen_start") or self.params
         for name, value in start.items():
             try:
                 array = np.asarray(value, dtype=float)
@@ -1052,11 +1052,11 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         """``fit(*args)`` from ``start`` (after starts, continuation) or ``params``."""
         if start is None:
             return fit(*args)
-        self._continued_start = start
+        self._chosen_start = start
         try:
             return fit(*args)
         finally:
-            self.__dict__.pop("_continued_start", None)
+            self.__dict__.pop("_chosen_start", None)
 
     @transactional
     @_fit_context(prefer_skip_nested_validation=True)

@@ -71,7 +71,7 @@ def test_it_is_the_stages_fitted_one_after_the_other(record):
     # The final fit is at the model's own value, and params is left as given.
     assert continued.params_["eps"] == 1e-4
     assert continued.params == ROUGH
-    assert not hasattr(continued, "_continued_start")
+    assert not hasattr(continued, "_chosen_start")
 
 
 def test_the_one_step_fit_runs_the_stages_too(record):

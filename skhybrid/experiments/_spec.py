@@ -530,7 +530,7 @@ class SystemSpec:
         # The spec's starts replace the physics' parameters: the first is the
         # model's params, the others its starts (StateSpaceModel's several starts).
         first, *others = self.physics_starts
-        return base.set_params(
+        return clone(base).set_params(
             params={**base.params, **first},
             starts=others or None,
             starts_nfev=self.starts_nfev,

@@ -452,6 +452,13 @@ def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
             physics=machine.physics().set_params(starts=[{"k": 1.0}]),
             physics_starts=starts,
         )
+    # A callable's physics gets the starts on a copy; its own object is left as is.
+    shared = machine.physics()
+    made = machine.make_spec(
+        physics=lambda U, Y, dt: shared, physics_starts=starts
+    ).make_physics(U, Y, machine.DT)
+    assert made.starts == starts[1:]
+    assert shared.starts is None and shared.params == base
     # A callable's physics is seen when it is made.
     ridge = machine.make_spec(physics=lambda U, Y, dt: Ridge(), physics_starts=starts)
     with pytest.raises(TypeError, match="needs a physics that takes starts"):

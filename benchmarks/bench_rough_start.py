@@ -45,8 +45,8 @@ import warnings
 import numpy as np
 from joblib import Parallel, delayed
 
+from skhybrid.benchmarks.cascaded_tanks import physics as tanks_physics
 from skhybrid.domain import random_starts
-from skhybrid.experiments._measured_physics import tanks_physics
 
 TRUTH = {
     "k1": 0.06,

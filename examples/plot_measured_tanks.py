@@ -25,8 +25,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from skhybrid.benchmarks import PUBLISHED, benchmark_spec
 from skhybrid.datasets import load_cascaded_tanks
-from skhybrid.experiments import PUBLISHED, benchmark_spec
 
 # By default ../shared/data from where you run it (the repository's root).
 default = Path.cwd() / ".." / "shared" / "data"

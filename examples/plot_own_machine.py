@@ -210,4 +210,4 @@ plt.show()
 # ``results.json``, ``report.html`` (open it in a browser) and the figure; an
 # interrupted run carries on where it stopped with ``--resume``. The built-in
 # measured benchmarks are specs of this same form:
-# ``skhybrid.experiments.benchmark_spec("silverbox", data_dir)``.
+# ``skhybrid.benchmarks.benchmark_spec("silverbox", data_dir)``.

@@ -31,6 +31,7 @@ __version__ = "0.2.0.dev0"
 
 __all__ = [
     "__version__",
+    "benchmarks",
     "datasets",
     "diagnostics",
     "domain",

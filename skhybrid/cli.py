@@ -319,7 +319,7 @@ def _settings(quick, seed, noise_type=None, system=None):
 
 
 def _system(name):
-    from skhybrid.experiments._runner import get_system
+    from skhybrid.experiments._registry import get_system
 
     return get_system(name)
 
@@ -524,7 +524,7 @@ class _Plan:
         self.args = args
         self.measured = args.spec is not None or args.system in MEASURED_SYSTEMS
         if args.spec is not None:
-            from skhybrid.experiments._measured import MeasuredSystem
+            from skhybrid.experiments._measured_system import MeasuredSystem
 
             try:
                 self.system = MeasuredSystem.from_spec(_load_spec(args.spec))

@@ -6,9 +6,9 @@ window convention of :mod:`skhybrid.preprocessing`, with the raw per-episode
 (the true equations applied to the noisy windows: the best any model can do).
 Each simulator comes with the physics a benchmark fits to it:
 :class:`~skhybrid.domain.PendulumModel` for :func:`make_pendulum`,
-:func:`single_pendulum_step` for :func:`make_double_pendulum` and
-:func:`dc_motor_step` (or :class:`~skhybrid.domain.LinearStateSpaceModel`) for
-:func:`make_dc_motor`.
+:func:`~skhybrid.domain.single_pendulum_step` for :func:`make_double_pendulum` and
+:func:`~skhybrid.domain.dc_motor_step` (or
+:class:`~skhybrid.domain.LinearStateSpaceModel`) for :func:`make_dc_motor`.
 
 Loaders (``load_*``) read the measured benchmark data from a folder the caller
 names and download nothing; fetchers (``fetch_*``) download the official files
@@ -17,11 +17,8 @@ once into a data home (:func:`get_data_home`: a parameter, or the
 matching loader returns.
 """
 
-from skhybrid.datasets._dc_motor import dc_motor_step, make_dc_motor
-from skhybrid.datasets._double_pendulum import (
-    make_double_pendulum,
-    single_pendulum_step,
-)
+from skhybrid.datasets._dc_motor import make_dc_motor
+from skhybrid.datasets._double_pendulum import make_double_pendulum
 from skhybrid.datasets._fetch import (
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
@@ -42,7 +39,6 @@ from skhybrid.datasets._loaders import (
 from skhybrid.datasets._pendulum import make_pendulum
 
 __all__ = [
-    "dc_motor_step",
     "fetch_cascaded_tanks",
     "fetch_coupled_electric_drives",
     "fetch_emps",
@@ -59,5 +55,4 @@ __all__ = [
     "make_dc_motor",
     "make_double_pendulum",
     "make_pendulum",
-    "single_pendulum_step",
 ]

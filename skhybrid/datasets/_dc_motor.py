@@ -16,7 +16,7 @@ from skhybrid.datasets._base import (
     _window_bunch,
 )
 
-__all__ = ["dc_motor_step", "make_dc_motor"]
+__all__ = ["make_dc_motor"]
 
 _STATE_NAMES = ["load_angle", "load_speed"]
 _INPUT_NAMES = ["voltage"]
@@ -80,7 +80,7 @@ noise (noise_type="measurement") or measured exactly after a Gaussian
 disturbance of the load angle and speed at every step (noise_type="process");
 input: the voltage (V), noise free. The paper's physics model of the
 real drive is a linear state-space model (skhybrid.domain.LinearStateSpaceModel);
-skhybrid.datasets.dc_motor_step is its physically parametrised rigid-gear form.
+skhybrid.domain.dc_motor_step is its physically parametrised rigid-gear form.
 """
 
 
@@ -192,68 +192,6 @@ def _rigid_motor_params(params, dt):
     }
 
 
-def dc_motor_step(X, *, gain, time_constant, dt=0.001, xp=np):
-    """One sample of a rigid DC drive: the physics model of the motor data.
-
-    Neglecting the armature inductance and the backlash, the load speed ``w`` of a
-    DC drive obeys ``time_constant * dw/dt = gain * V - w`` and the load angle
-    integrates ``w``. This function applies the exact zero-order-hold solution over
-    one sample ``dt`` to the newest time step ``[load_angle, load_speed, voltage]``
-    of each row (its last three columns):
-
-    ``w(t+1) = a w + (1 - a) gain V`` and ``theta(t+1) = theta + gain V dt +
-    (w - gain V) time_constant (1 - a)``, with ``a = exp(-dt / time_constant)``.
-
-    Both parameters have a physical meaning: ``gain = n Kt / (R b)`` (steady
-    load speed per volt) and ``time_constant = (Jl + n^2 Jm) / b``, with the
-    total friction ``b = bl + n^2 (bm + Kt Ke / R)``. :func:`make_dc_motor`
-    returns their true values as ``rigid_params``. Written against the array
-    namespace ``xp`` for :class:`~skhybrid.domain.ParametricModel`; bind ``dt``
-    with :func:`functools.partial` for another sample period.
-
-    Parameters
-    ----------
-    X : ndarray or torch.Tensor of shape (n_samples, 3 * n_steps)
-        Windows of ``[load_angle, load_speed, voltage]`` steps, oldest first.
-    gain : float or 0-d array
-        Steady-state load speed per volt (rad/s/V).
-    time_constant : float or 0-d array
-        Mechanical time constant (s).
-    dt : float, default=0.001
-        Sample period (s), :func:`make_dc_motor`'s default.
-    xp : module, default=numpy
-        Array namespace.
-
-    Returns
-    -------
-    y_pred : ndarray or torch.Tensor of shape (n_samples, 2)
-        Predicted ``[load_angle, load_speed]`` one sample later.
-
-    See Also
-    --------
-    make_dc_motor : Data this model is meant to be fitted to.
-    skhybrid.domain.LinearStateSpaceModel : The unstructured linear alternative.
-
-    Examples
-    --------
-    >>> from skhybrid.datasets import dc_motor_step, make_dc_motor
-    >>> from skhybrid.domain import ParametricModel
-    >>> data = make_dc_motor(n_samples=1000, episode_length=250, random_state=0)
-    >>> model = ParametricModel(dc_motor_step, {"gain": 1.0, "time_constant": 0.1})
-    >>> model = model.fit(data.X, data.y)
-    >>> sorted(model.params_)
-    ['gain', 'time_constant']
-    """
-    step = X[:, X.shape[1] - 3 :]
-    theta, w, v = step[:, 0], step[:, 1], step[:, 2]
-    # Broadcast against a column first so that float parameters work on torch too.
-    a = xp.exp(-dt / time_constant * xp.ones_like(w))
-    w_ss = gain * v
-    new_w = a * w + (1.0 - a) * w_ss
-    new_theta = theta + w_ss * dt + (w - w_ss) * time_constant * (1.0 - a)
-    return xp.stack([new_theta, new_w], axis=1)
-
-
 def make_dc_motor(
     n_samples=20000,
     *,
@@ -345,8 +283,9 @@ def make_dc_motor(
             The physical constants used (the defaults updated with
             ``motor_params``) and ``dt``.
         rigid_params : dict
-            ``gain``, ``time_constant`` and ``dt`` of :func:`dc_motor_step` for
-            these constants (the backlash-free reduction).
+            ``gain``, ``time_constant`` and ``dt`` of
+            :func:`~skhybrid.domain.dc_motor_step` for these constants (the
+            backlash-free reduction).
         excitation_hz : float
             Rate of the voltage switches.
         dt : float
@@ -362,7 +301,7 @@ def make_dc_motor(
 
     See Also
     --------
-    dc_motor_step : A physically parametrised rigid-drive model to fit.
+    skhybrid.domain.dc_motor_step : A physically parametrised rigid-drive model to fit.
     skhybrid.domain.LinearStateSpaceModel : The paper's physics model of the motor.
     make_pendulum : The actuated pendulum.
 

@@ -17,7 +17,7 @@ from skhybrid.datasets._base import (
     _window_bunch,
 )
 
-__all__ = ["make_double_pendulum", "single_pendulum_step"]
+__all__ = ["make_double_pendulum"]
 
 _STATE_NAMES = ["theta", "theta_dot", "theta_ddot"]
 _FULL_STATE_NAMES = ["theta1", "theta1_dot", "theta2", "theta2_dot"]
@@ -46,7 +46,7 @@ every sample (the system evolves from the disturbed state, integrated sample by
 sample) and the observations are exact; theta_ddot follows from the disturbed
 state.
 The small pendulum is the unmodelled degree of freedom: a single-pendulum
-physics model (skhybrid.datasets.single_pendulum_step) leaves an oscillating,
+physics model (skhybrid.domain.single_pendulum_step) leaves an oscillating,
 correlated residual that a neural stage can learn. There are no inputs.
 """
 
@@ -131,74 +131,6 @@ def _observe(full, params):
         params["g"],
     )
     return np.stack([full[..., 0], full[..., 1], a1], axis=-1)
-
-
-def single_pendulum_step(X, *, length, damping=0.0, g=9.81, dt=0.01, xp=np):
-    """One step of a single pendulum, the physics fitted to the double pendulum.
-
-    Reads the newest time step ``[theta, theta_dot, theta_ddot]`` of each row
-    (the last three columns), integrates ``theta_ddot = -(g / length) sin(theta) -
-    damping theta_dot`` from ``(theta, theta_dot)`` over ``dt`` with one classical
-    Runge-Kutta (RK4) step, and returns the next ``[theta, theta_dot,
-    theta_ddot]``. The observed ``theta_ddot`` of the row is not used: for a single
-    pendulum it follows from ``theta`` and ``theta_dot``.
-
-    Written against the array namespace ``xp``, so it serves
-    :class:`~skhybrid.domain.ParametricModel` on NumPy (least squares) and on torch
-    (``jac="autograd"``, joint training). Bind ``dt`` (and ``g``) with
-    :func:`functools.partial` when the data use another sample period.
-
-    Parameters
-    ----------
-    X : ndarray or torch.Tensor of shape (n_samples, 3 * n_steps)
-        Windows of ``[theta, theta_dot, theta_ddot]`` steps, oldest first.
-    length : float or 0-d array
-        Effective pendulum length (m), the parameter to fit.
-    damping : float or 0-d array, default=0.0
-        Viscous damping rate (1/s); fit it too to let the model lose energy.
-    g : float, default=9.81
-        Gravitational acceleration (m/s^2).
-    dt : float, default=0.01
-        Sample period (s), :func:`make_double_pendulum`'s default.
-    xp : module, default=numpy
-        Array namespace.
-
-    Returns
-    -------
-    y_pred : ndarray or torch.Tensor of shape (n_samples, 3)
-        Predicted ``[theta, theta_dot, theta_ddot]`` one sample later.
-
-    See Also
-    --------
-    make_double_pendulum : Data this model is meant to be fitted to.
-
-    Examples
-    --------
-    >>> from skhybrid.datasets import make_double_pendulum, single_pendulum_step
-    >>> from skhybrid.domain import ParametricModel
-    >>> data = make_double_pendulum(n_samples=500, random_state=0)
-    >>> model = ParametricModel(single_pendulum_step, {"length": 2.0})
-    >>> model = model.fit(data.X, data.y)
-    >>> 0.9 < model.params_["length"] < 1.3
-    True
-    """
-    step = X[:, X.shape[1] - 3 :]
-    theta, omega = step[:, 0], step[:, 1]
-    k = g / length
-
-    def accel(th, w):
-        return -k * xp.sin(th) - damping * w
-
-    k1_th, k1_w = omega, accel(theta, omega)
-    k2_th = omega + 0.5 * dt * k1_w
-    k2_w = accel(theta + 0.5 * dt * k1_th, k2_th)
-    k3_th = omega + 0.5 * dt * k2_w
-    k3_w = accel(theta + 0.5 * dt * k2_th, k3_th)
-    k4_th = omega + dt * k3_w
-    k4_w = accel(theta + dt * k3_th, k4_th)
-    new_theta = theta + dt / 6.0 * (k1_th + 2.0 * k2_th + 2.0 * k3_th + k4_th)
-    new_omega = omega + dt / 6.0 * (k1_w + 2.0 * k2_w + 2.0 * k3_w + k4_w)
-    return xp.stack([new_theta, new_omega, accel(new_theta, new_omega)], axis=1)
 
 
 def make_double_pendulum(
@@ -312,7 +244,7 @@ def make_double_pendulum(
 
     See Also
     --------
-    single_pendulum_step : The single-pendulum physics to fit to these data.
+    skhybrid.domain.single_pendulum_step : The single-pendulum physics to fit.
     make_pendulum : The actuated single pendulum.
 
     Examples

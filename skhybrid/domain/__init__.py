@@ -15,12 +15,13 @@ from skhybrid.domain._friction import (
 from skhybrid.domain._identifiability import check_identifiability
 from skhybrid.domain._inputs import band_limited_inputs
 from skhybrid.domain._linear import LinearStateSpaceModel
+from skhybrid.domain._motor import dc_motor_step
 
 # Internal, handed to skhybrid.experiments (the Wiener-Hammerstein physics of
 # old run folders); not in __all__.
 from skhybrid.domain._output_error import _LinearOutputError as _LinearOutputError
 from skhybrid.domain._parametric import ParametricModel
-from skhybrid.domain._pendulum import PendulumModel, pendulum_step
+from skhybrid.domain._pendulum import PendulumModel, pendulum_step, single_pendulum_step
 from skhybrid.domain._starts import random_starts
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.domain._subspace import subspace_state_space
@@ -36,8 +37,10 @@ __all__ = [
     "band_limited_inputs",
     "check_identifiability",
     "coulomb_viscous_friction",
+    "dc_motor_step",
     "pendulum_step",
     "random_starts",
+    "single_pendulum_step",
     "stribeck_friction",
     "subspace_state_space",
 ]

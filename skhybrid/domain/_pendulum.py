@@ -8,7 +8,7 @@ from skhybrid.domain._base import DomainModel
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.utils._sklearn_compat import Interval
 
-__all__ = ["PendulumModel", "pendulum_step"]
+__all__ = ["PendulumModel", "pendulum_step", "single_pendulum_step"]
 
 
 def pendulum_step(
@@ -223,3 +223,71 @@ class PendulumModel(DomainModel):
             xp=xp,
         )
         return xp.stack([cos_t, sin_t, theta_dot], axis=1)
+
+
+def single_pendulum_step(X, *, length, damping=0.0, g=9.81, dt=0.01, xp=np):
+    """One step of a single pendulum, the physics fitted to the double pendulum.
+
+    Reads the newest time step ``[theta, theta_dot, theta_ddot]`` of each row
+    (the last three columns), integrates ``theta_ddot = -(g / length) sin(theta) -
+    damping theta_dot`` from ``(theta, theta_dot)`` over ``dt`` with one classical
+    Runge-Kutta (RK4) step, and returns the next ``[theta, theta_dot,
+    theta_ddot]``. The observed ``theta_ddot`` of the row is not used: for a single
+    pendulum it follows from ``theta`` and ``theta_dot``.
+
+    Written against the array namespace ``xp``, so it serves
+    :class:`~skhybrid.domain.ParametricModel` on NumPy (least squares) and on torch
+    (``jac="autograd"``, joint training). Bind ``dt`` (and ``g``) with
+    :func:`functools.partial` when the data use another sample period.
+
+    Parameters
+    ----------
+    X : ndarray or torch.Tensor of shape (n_samples, 3 * n_steps)
+        Windows of ``[theta, theta_dot, theta_ddot]`` steps, oldest first.
+    length : float or 0-d array
+        Effective pendulum length (m), the parameter to fit.
+    damping : float or 0-d array, default=0.0
+        Viscous damping rate (1/s); fit it too to let the model lose energy.
+    g : float, default=9.81
+        Gravitational acceleration (m/s^2).
+    dt : float, default=0.01
+        Sample period (s), :func:`~skhybrid.datasets.make_double_pendulum`'s default.
+    xp : module, default=numpy
+        Array namespace.
+
+    Returns
+    -------
+    y_pred : ndarray or torch.Tensor of shape (n_samples, 3)
+        Predicted ``[theta, theta_dot, theta_ddot]`` one sample later.
+
+    See Also
+    --------
+    skhybrid.datasets.make_double_pendulum : Data this model is meant to be fitted to.
+
+    Examples
+    --------
+    >>> from skhybrid.datasets import make_double_pendulum
+    >>> from skhybrid.domain import ParametricModel, single_pendulum_step
+    >>> data = make_double_pendulum(n_samples=500, random_state=0)
+    >>> model = ParametricModel(single_pendulum_step, {"length": 2.0})
+    >>> model = model.fit(data.X, data.y)
+    >>> 0.9 < model.params_["length"] < 1.3
+    True
+    """
+    step = X[:, X.shape[1] - 3 :]
+    theta, omega = step[:, 0], step[:, 1]
+    k = g / length
+
+    def accel(th, w):
+        return -k * xp.sin(th) - damping * w
+
+    k1_th, k1_w = omega, accel(theta, omega)
+    k2_th = omega + 0.5 * dt * k1_w
+    k2_w = accel(theta + 0.5 * dt * k1_th, k2_th)
+    k3_th = omega + 0.5 * dt * k2_w
+    k3_w = accel(theta + 0.5 * dt * k2_th, k3_th)
+    k4_th = omega + dt * k3_w
+    k4_w = accel(theta + dt * k3_th, k4_th)
+    new_theta = theta + dt / 6.0 * (k1_th + 2.0 * k2_th + 2.0 * k3_th + k4_th)
+    new_omega = omega + dt / 6.0 * (k1_w + 2.0 * k2_w + 2.0 * k3_w + k4_w)
+    return xp.stack([new_theta, new_omega, accel(new_theta, new_omega)], axis=1)

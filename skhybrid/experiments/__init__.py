@@ -16,7 +16,9 @@ A user's own machine is a :class:`SystemSpec` (records, sample period,
 initialisation window, physics, test records) run by :func:`run_system`, or by
 ``skhybrid run --system module:object``: the same candidate family, chosen on
 validation tails at each seed, with the selection sealed before the test records
-are read. :func:`benchmark_spec` returns a built-in benchmark's spec.
+are read. The built-in systems are the catalogue :mod:`skhybrid.benchmarks`, one
+module each; :func:`skhybrid.benchmarks.benchmark_spec` returns a measured
+benchmark's spec.
 """
 
 import importlib
@@ -24,17 +26,16 @@ import importlib
 # Names load on first use (PEP 562), so that ``skhybrid run`` can check its
 # output folder (skhybrid.experiments._store) before torch and the zoo import.
 _LAZY = {
-    "MEASURED_SYSTEMS": "_benchmarks",
-    "PUBLISHED": "_benchmarks",
+    "MEASURED_SYSTEMS": "_registry",
     "SystemSpec": "_spec",
-    "benchmark_spec": "_benchmarks",
     "load_fitted": "_measured",
     "run_system": "_measured",
-    "SYSTEMS": "_systems",
+    "SYSTEMS": "_registry",
     "ExperimentResult": "_runner",
     "ExperimentSettings": "_settings",
     "System": "_systems",
     "check_claims": "_claims",
+    "hybrid_settings": "_spec",
     "model_zoo": "_zoo",
     "run_experiment": "_runner",
     "run_measured": "_measured",
@@ -43,14 +44,13 @@ _LAZY = {
 
 __all__ = [
     "MEASURED_SYSTEMS",
-    "PUBLISHED",
     "SYSTEMS",
     "ExperimentResult",
     "ExperimentSettings",
     "System",
     "SystemSpec",
-    "benchmark_spec",
     "check_claims",
+    "hybrid_settings",
     "load_fitted",
     "model_zoo",
     "run_experiment",

@@ -28,9 +28,12 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
-from skhybrid.experiments._measured_physics import fit_segments
+from skhybrid.experiments._fitting import (
+    fit_segments,
+    interrupts_raise,
+    physical_params,
+)
 from skhybrid.experiments._progress import attach_epoch_logger
-from skhybrid.experiments._runner import _interrupts_raise, _physical_params
 from skhybrid.experiments._spec import pieces_per_record
 from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
 
@@ -586,7 +589,7 @@ def fit_model(name, model, ctx, deps, sink=None):
         ``selection``.
     """
     ctx = replace(ctx, sink=sink, label=name)
-    with warnings.catch_warnings(record=True) as caught, _interrupts_raise():
+    with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()
         chosen, validation_fit, selection = choose_and_refit(model, ctx, deps)
@@ -608,7 +611,7 @@ def fit_model(name, model, ctx, deps, sink=None):
     extras = {}
     if model.keep_validation_fit and validation_fit is not None:
         extras["validation_fit"] = validation_fit
-    params = {} if chosen is None else _physical_params(chosen)
+    params = {} if chosen is None else physical_params(chosen)
     rmse = getattr(chosen, "rmse_", None) if name == "physics" else None
     if rmse is not None:
         selection["estimation_rmse"] = ctx.system.scale * float(rmse)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from skhybrid.experiments._claims import check_claims
+from skhybrid.experiments._measured_report import measured_figure, measured_section
 
 __all__ = ["write_report"]
 
@@ -294,11 +295,6 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
     figures, sections, systems = [], [], {}
     for result in results:
         if getattr(result.system, "measured", False):
-            from skhybrid.experiments._measured import (
-                measured_figure,
-                measured_section,
-            )
-
             path = measured_figure(result, out_dir)
             figures.append(path)
             sections.append(measured_section(result, path))

@@ -3,7 +3,6 @@
 import contextlib
 import logging
 import os
-import signal
 import time
 import warnings
 
@@ -12,13 +11,15 @@ from joblib import Parallel, delayed, parallel_config
 from joblib.parallel import get_active_backend
 
 from skhybrid.diagnostics import ljung_box_test, rmse_db
+from skhybrid.experiments._fitting import interrupts_raise, n_epochs, physical_params
 from skhybrid.experiments._progress import (
     ProgressBars,
     attach_epoch_logger,
     epoch_budget,
 )
+from skhybrid.experiments._registry import get_system
 from skhybrid.experiments._settings import ExperimentSettings
-from skhybrid.experiments._systems import SYSTEMS
+from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._zoo import model_zoo
 
 __all__ = ["ExperimentResult", "run_experiment"]
@@ -121,73 +122,9 @@ class ExperimentResult:
         }
 
 
-def _physical_params(estimator):
-    """``{name: (value, std)}`` of the physics inside ``estimator``, if any."""
-    candidates = [estimator]
-    stages = getattr(estimator, "stages_", None)
-    if stages:
-        candidates.append(stages[0][1])
-    for est in candidates:
-        params = getattr(est, "params_", None)
-        if isinstance(params, dict):
-            std = getattr(est, "params_std_", None) or {}
-            # A fixed parameter was not fitted: it has no standard error.
-            fixed = set(getattr(est, "fixed", None) or ())
-            free = getattr(est, "free_params_", None)
-            if free is not None:
-                fixed |= set(params) - set(free)
-            return {
-                name: {
-                    "value": np.asarray(value).tolist(),
-                    "std": None
-                    if name not in std or name in fixed
-                    else np.asarray(std[name]).tolist(),
-                    "fixed": name in fixed,
-                }
-                for name, value in params.items()
-            }
-    return {}
-
-
-def _n_epochs(estimator):
-    for est in [estimator, *(s for _, s in getattr(estimator, "stages_", []))]:
-        if hasattr(est, "n_epochs_"):
-            return int(est.n_epochs_)
-    return None
-
-
-@contextlib.contextmanager
-def _interrupts_raise():
-    """Make a Ctrl-C during the body raise KeyboardInterrupt after it.
-
-    skorch catches KeyboardInterrupt in ``fit`` and returns the network trained so
-    far, as if training had finished: a model cut short would be recorded as
-    complete. Here a SIGINT is remembered and raised again once the body returns.
-    Only the main thread of a process receives signals: elsewhere (a Dask worker's
-    thread) this does nothing.
-    """
-    hit = []
-
-    def handler(signum, frame):
-        hit.append(signum)
-        raise KeyboardInterrupt
-
-    try:
-        previous = signal.signal(signal.SIGINT, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if hit:
-        raise KeyboardInterrupt
-
-
 def _fit_one(name, estimator, X, y, tests):
     """Fit one model and predict every test split (runs in a joblib worker)."""
-    with warnings.catch_warnings(record=True) as caught, _interrupts_raise():
+    with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()
         estimator.fit(X, y)
@@ -204,8 +141,8 @@ def _fit_one(name, estimator, X, y, tests):
         "estimator": estimator,
         "predictions": predictions,
         "fit_time": fit_time,
-        "n_epochs": _n_epochs(estimator),
-        "params": _physical_params(estimator),
+        "n_epochs": n_epochs(estimator),
+        "params": physical_params(estimator),
         "warnings": messages,
     }
 
@@ -288,31 +225,6 @@ def _local_threads(backend, n_threads):
             yield
     else:
         yield
-
-
-def get_system(system):
-    """The system named ``system`` (a paper system or a measured benchmark).
-
-    Parameters
-    ----------
-    system : str or System or MeasuredSystem
-        A name from ``skhybrid list`` (or a measured benchmark's), or the system.
-
-    Returns
-    -------
-    system : System or MeasuredSystem
-        The system.
-    """
-    if not isinstance(system, str):
-        return system
-    from skhybrid.experiments._benchmarks import MEASURED_SYSTEMS
-
-    known = {**SYSTEMS, **MEASURED_SYSTEMS}
-    if system not in known:
-        raise ValueError(
-            f"system must be one of {sorted(known)}; got system={system!r}."
-        )
-    return known[system]
 
 
 def _is_measured(system):
@@ -437,8 +349,6 @@ def run_experiment(
 
     key = result.store_key
     if measured and folder is not None:
-        from skhybrid.experiments._spec import records_digest
-
         folder.check_records(key, records_digest(*result.train))
     done = {} if folder is None else folder.finished(key)
     done = {name: record for name, record in done.items() if name in zoo}

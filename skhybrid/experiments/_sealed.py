@@ -16,20 +16,19 @@ import time
 
 import numpy as np
 
+from skhybrid.experiments._measured_report import hull_exit
 from skhybrid.experiments._measured_zoo import simulate_records
+from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._spec import records_digest
+from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
 
 __all__ = [
-    "SELECTION_FILE",
     "MeasuredRun",
     "describe_spec",
     "run_seeds",
     "score_tests",
     "seal",
 ]
-
-#: The frozen selection, written in the run folder before any test record is read.
-SELECTION_FILE = "selection.json"
 
 
 def describe_spec(spec, U, Y=None):
@@ -99,8 +98,6 @@ def seal(results, folder_path):
     digest = hashlib.sha256(_canonical(selection).encode()).hexdigest()
     sealed = {"sha256": digest, "selection": selection}
     if folder_path is not None:
-        from skhybrid.experiments._store import _write_atomic
-
         text = json.dumps(
             {"sha256": digest, "hashed": "canonical JSON of 'selection'", **sealed},
             indent=1,
@@ -149,9 +146,7 @@ def score_tests(result, tests, folder=None):
                 for model in result.fits
             }
     if "test_arrow_full" in tests:
-        from skhybrid.experiments._measured import _hull_exit
-
-        first, count = _hull_exit(result.train, tests["test_arrow_full"], result.n_init)
+        first, count = hull_exit(result.train, tests["test_arrow_full"], result.n_init)
         result.hull = {"test_arrow_full": {"first_outside": first, "n_outside": count}}
     if folder is not None:
         folder.save_arrays(
@@ -399,8 +394,6 @@ def run_seeds(
     run : MeasuredRun
         Every seed's selection and test scores, and the seal.
     """
-    from skhybrid.experiments._runner import run_experiment
-
     start = time.perf_counter()
     results = [
         run_experiment(

@@ -32,6 +32,7 @@ import numpy as np
 
 __all__ = [
     "RUN_FORMAT",
+    "SELECTION_FILE",
     "FolderLock",
     "RunFolder",
     "RunFolderError",
@@ -42,6 +43,10 @@ RUN_FORMAT = 1
 
 #: What a finished report leaves in the folder (besides the figures).
 REPORT_FILES = ("results.csv", "results.json", "report.html", "selection.json")
+
+
+#: The sealed selection's file in a run folder.
+SELECTION_FILE = "selection.json"
 
 
 class RunFolderError(Exception):

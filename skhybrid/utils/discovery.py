@@ -32,11 +32,12 @@ PUBLIC_MODULES = (
     "datasets",
     "preprocessing",
     "experiments",
+    "benchmarks",
     "exceptions",
     "utils",
 )
 
-_SKIP_MODULE_PARTS = {"tests", "cli", "__main__", "benchmarks"}
+_SKIP_MODULE_PARTS = {"tests", "cli", "__main__"}
 
 
 def _public_modules():

@@ -5,15 +5,14 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.integrate import solve_ivp
 
-from skhybrid.datasets import (
+from skhybrid.datasets import make_dc_motor, make_double_pendulum, make_pendulum
+from skhybrid.datasets._dc_motor import _coefficients, _rhs
+from skhybrid.domain import (
+    ParametricModel,
+    PendulumModel,
     dc_motor_step,
-    make_dc_motor,
-    make_double_pendulum,
-    make_pendulum,
     single_pendulum_step,
 )
-from skhybrid.datasets._dc_motor import _coefficients, _rhs
-from skhybrid.domain import ParametricModel, PendulumModel
 from skhybrid.preprocessing import make_windows
 
 # Small, fast configurations: (function, kwargs, n_states, n_inputs).

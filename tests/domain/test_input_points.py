@@ -7,13 +7,8 @@ import pytest
 import torch
 from numpy.testing import assert_allclose, assert_array_equal
 
+from skhybrid.benchmarks.silverbox import _duffing_rhs, duffing, with_next_input
 from skhybrid.domain import StateSpaceModel, band_limited_inputs
-from skhybrid.experiments._measured_physics import (
-    _duffing_rhs,
-    duffing,
-    duffing_foh,
-    with_next_input,
-)
 
 DT = 2**14 / 1e7
 PARAMS = {"g": 1.9e5, "d": 41.0, "k1": 1.85e5, "k2": -6e3, "k3": 7e5, "c": -1e3}
@@ -27,6 +22,25 @@ def duffing_band_limited(x, u, *, xp, g, d, k1, k2, k3, c, dt):
     a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, u[:, 1], *p)
     a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, u[:, 1], *p)
     a4, b4 = _duffing_rhs(y + dt * a3, v + dt * b3, u[:, 2], *p)
+    return xp.stack(
+        [
+            y + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+            v + dt / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+        ],
+        axis=1,
+    )
+
+
+def duffing_foh(x, u, *, xp, g, d, k1, k2, k3, c, dt):
+    """One hand-written RK4 step with the input held linearly between samples."""
+    p = (g, d, k1, k2, k3, c)
+    y, v = x[:, 0], x[:, 1]
+    u0, u1 = u[:, 0], u[:, 1]
+    um = 0.5 * (u0 + u1)
+    a1, b1 = _duffing_rhs(y, v, u0, *p)
+    a2, b2 = _duffing_rhs(y + 0.5 * dt * a1, v + 0.5 * dt * b1, um, *p)
+    a3, b3 = _duffing_rhs(y + 0.5 * dt * a2, v + 0.5 * dt * b2, um, *p)
+    a4, b4 = _duffing_rhs(y + dt * a3, v + dt * b3, u1, *p)
     return xp.stack(
         [
             y + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
@@ -66,7 +80,7 @@ def _run(model, inputs):
 )
 def test_points_give_the_hand_written_step(step, points, transform):
     """A continuous Duffing reading 3 (2) points a sample is a hand-written
-    band-limited (the Silverbox's old first-order-hold) RK4 step, to the last
+    band-limited (first-order-hold) RK4 step, to the last
     bit."""
     u = _force()
     inputs = transform(u)

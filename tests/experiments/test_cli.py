@@ -206,16 +206,20 @@ def test_missing_requirement_stops_before_training(monkeypatch, capsys, tmp_path
     assert not (tmp_path / "r").exists()
 
 
-def test_old_module_name_warns_and_still_works():
-    import importlib
-    import sys
+def test_the_catalogue_names_every_built_in_system():
+    from skhybrid import benchmarks
+    from skhybrid.experiments import MEASURED_SYSTEMS, SYSTEMS
 
-    sys.modules.pop("skhybrid.benchmarks", None)
-    with pytest.warns(FutureWarning, match="renamed skhybrid.experiments"):
-        old = importlib.import_module("skhybrid.benchmarks")
-    import skhybrid.experiments as new
-
-    assert old.run_experiment is new.run_experiment
+    assert list(benchmarks.SIMULATED) == list(SYSTEMS)
+    assert list(benchmarks.MEASURED) == list(MEASURED_SYSTEMS)
+    for name, module in benchmarks.MEASURED.items():
+        system = MEASURED_SYSTEMS[name]
+        assert (system.name, system.title, system.unit) == (
+            module.NAME,
+            module.TITLE,
+            module.UNIT,
+        )
+        assert callable(module.make_spec) and module.NOTES
 
 
 @pytest.mark.parametrize(

@@ -9,8 +9,8 @@ from numpy.testing import assert_allclose
 from sklearn.base import clone
 from sklearn.linear_model import Ridge
 
-from skhybrid.experiments._benchmarks import EMPS
-from skhybrid.experiments._measured_physics import emps_physics, with_next_input
+from skhybrid.benchmarks.emps import physics as emps_physics
+from skhybrid.benchmarks.silverbox import with_next_input
 from skhybrid.experiments._measured_zoo import (
     MeasuredContext,
     ZooModel,
@@ -18,11 +18,14 @@ from skhybrid.experiments._measured_zoo import (
     choose_and_refit,
     fit_model,
 )
+from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.hybrid._correction import (
     _NARXSimulator,
     _PhysicsCorrection,
     _TransformedInputs,
 )
+
+EMPS = MEASURED_SYSTEMS["emps"]
 
 CONTRACT = (
     "(inputs, initial, *, init='measured', n_samples=None, random_state=None, "
@@ -160,7 +163,7 @@ def _constant_fit(calls):
 def test_a_failed_candidate_is_named_in_the_models_warnings():
     u = np.zeros((400, 1))
     y = np.full((400, 1), 2.0)
-    ctx = MeasuredContext(EMPS(), [u], [y], 10, 1e-3, True, 0)
+    ctx = MeasuredContext(EMPS, [u], [y], 10, 1e-3, True, 0)
     model = ZooModel(
         _constant_fit([]),
         lambda ctx, records: {1.9: 1.9, "bad": "bad"},
@@ -178,7 +181,7 @@ def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
     y = np.full((400, 1), 2.0)
     # Two records of different lengths: each has its own validation tail.
     U, Y = [u, u[:240]], [y, y[:240]]
-    ctx = MeasuredContext(EMPS(), U, Y, 10, 1e-3, True, 0)
+    ctx = MeasuredContext(EMPS, U, Y, 10, 1e-3, True, 0)
     calls = []
     model = ZooModel(
         _constant_fit(calls),

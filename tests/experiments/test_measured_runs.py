@@ -21,10 +21,18 @@ import pytest
 from sklearn.utils import Bunch
 
 from skhybrid import cli
+from skhybrid.benchmarks.emps import PUBLISHED as EMPS_PUBLISHED
+from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.cli import main
-from skhybrid.experiments import SystemSpec, _measured, _measured_zoo, _runner
-from skhybrid.experiments._benchmarks import EMPS, MEASURED_SYSTEMS
-from skhybrid.experiments._measured_physics import emps_physics
+from skhybrid.experiments import (
+    SystemSpec,
+    _measured,
+    _measured_system,
+    _measured_zoo,
+    _runner,
+)
+from skhybrid.experiments._measured_system import MeasuredSystem
+from skhybrid.experiments._registry import MEASURED_SYSTEMS
 
 REPO = Path(__file__).resolve().parents[2]
 TINY = ["dense NARX", "linear ARX", "physics", "physics + linear"]
@@ -51,9 +59,13 @@ def _axis_records(n=1600, seed=0):
     return (u[:n], y[:n]), {"test": (u[n:], y[n:])}
 
 
-class SyntheticAxis(EMPS):
+class SyntheticAxis(MeasuredSystem):
     """The EMPS benchmark on a simulated axis, with a four-model zoo."""
 
+    name = "emps"
+    title = "EMPS electro-mechanical positioning axis (measured, closed loop)"
+    unit = "mm"
+    scale = 1e3
     hybrids = False
 
     def make_spec(self, data=None, quick=False):
@@ -69,6 +81,7 @@ class SyntheticAxis(EMPS):
             tests=lambda: tests,
             unit="mm",
             scale=1e3,
+            published=EMPS_PUBLISHED,
             segments=(None,),
             hybrids=None,
         )
@@ -320,7 +333,7 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
         fitted.append(name)
         return fit_model(name, *args, **kwargs)
 
-    monkeypatch.setattr(_measured, "fit_model", counting)
+    monkeypatch.setattr(_measured_system, "fit_model", counting)
     backend = matplotlib.get_backend()
     users_figure = plt.figure()  # a user's own plotting session
     assert _run(out, "--resume") == 0
@@ -341,7 +354,7 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     selection = {k: f["selection"] for k, f in summary["fits"]["0"].items()}
     assert selection["physics"]["segment"] is None
     assert selection["dense NARX"]["n"] == selection["linear ARX"]["n"]
-    assert summary["published"]["test"]["state of the art (dynoNet)"]["rmse"] == 2.64
+    assert summary["published"]["test"]["state of the art (CT-SUBNET)"]["rmse"] == 4.61
     assert set(summary["physics_params"]["0"]) >= {"M", "Fv_pos", "Fc_neg"}
     assert (out / "emps.png").stat().st_size > 10_000
     page = (out / "report.html").read_text()

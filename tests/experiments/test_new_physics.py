@@ -6,13 +6,11 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.signal import lfilter
 
-from skhybrid.experiments._measured_physics import (
-    _LinearOutputError,
-    band_friction,
-    ced,
-    ced_physics,
-    friction_damper_physics,
-)
+from skhybrid.benchmarks.coupled_electric_drives import ced
+from skhybrid.benchmarks.coupled_electric_drives import physics as ced_physics
+from skhybrid.benchmarks.friction_damper import band_friction
+from skhybrid.benchmarks.friction_damper import physics as friction_damper_physics
+from skhybrid.domain import _LinearOutputError
 
 
 def _oe_record(n, seed, noise=0.0):

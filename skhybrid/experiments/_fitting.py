@@ -1,0 +1,121 @@
+"""What every fit of the pipeline shares: interrupts, reading parameters, segments."""
+
+import contextlib
+import itertools
+import signal
+
+import numpy as np
+
+__all__ = ["fit_segments", "interrupts_raise", "n_epochs", "physical_params"]
+
+
+def physical_params(estimator):
+    """``{name: (value, std)}`` of the physics inside ``estimator``, if any."""
+    candidates = [estimator]
+    stages = getattr(estimator, "stages_", None)
+    if stages:
+        candidates.append(stages[0][1])
+    for est in candidates:
+        params = getattr(est, "params_", None)
+        if isinstance(params, dict):
+            std = getattr(est, "params_std_", None) or {}
+            # A fixed parameter was not fitted: it has no standard error.
+            fixed = set(getattr(est, "fixed", None) or ())
+            free = getattr(est, "free_params_", None)
+            if free is not None:
+                fixed |= set(params) - set(free)
+            return {
+                name: {
+                    "value": np.asarray(value).tolist(),
+                    "std": None
+                    if name not in std or name in fixed
+                    else np.asarray(std[name]).tolist(),
+                    "fixed": name in fixed,
+                }
+                for name, value in params.items()
+            }
+    return {}
+
+
+def n_epochs(estimator):
+    for est in [estimator, *(s for _, s in getattr(estimator, "stages_", []))]:
+        if hasattr(est, "n_epochs_"):
+            return int(est.n_epochs_)
+    return None
+
+
+@contextlib.contextmanager
+def interrupts_raise():
+    """Make a Ctrl-C during the body raise KeyboardInterrupt after it.
+
+    skorch catches KeyboardInterrupt in ``fit`` and returns the network trained so
+    far, as if training had finished: a model cut short would be recorded as
+    complete. Here a SIGINT is remembered and raised again once the body returns.
+    Only the main thread of a process receives signals: elsewhere (a Dask worker's
+    thread) this does nothing.
+    """
+    hit = []
+
+    def handler(signum, frame):
+        hit.append(signum)
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if hit:
+        raise KeyboardInterrupt
+
+
+def fit_segments(model, u, y, segment):
+    """Fit ``model`` by the simulation error over consecutive segments of records.
+
+    Multiple shooting: each segment of ``segment`` samples is a record whose
+    initial state is estimated from its own first ``model.n_init`` samples; the
+    remainder of a record (fewer than ``segment`` samples) joins its last
+    segment. A model without ``fit_simulation`` (any estimator that simulates)
+    is fitted with ``fit(u, y)`` on the records as they are.
+
+    Parameters
+    ----------
+    model : StateSpaceModel or estimator
+        The model to fit (in place).
+    u, y : ndarray of shape (n_times, n_inputs) and (n_times, n_outputs), or \
+lists of them
+        One record, or several.
+    segment : int or None
+        Samples per segment; ``None`` fits whole records.
+
+    Returns
+    -------
+    model : StateSpaceModel or estimator
+        The fitted model.
+    """
+    several = isinstance(u, (list, tuple))
+    U, Y = (list(u), list(y)) if several else ([u], [y])
+    if not hasattr(model, "fit_simulation"):
+        return model.fit(U if several else u, Y if several else y)
+    if segment is not None and segment <= model.n_init:
+        raise ValueError(
+            f"segment={segment} must exceed the model's n_init={model.n_init}: a "
+            "segment's first n_init samples only estimate its initial state."
+        )
+    pieces_U, pieces_Y = [], []
+    for u_i, y_i in zip(U, Y, strict=True):
+        n = len(y_i)
+        if segment is None or segment >= n:
+            bounds = [0, n]
+        else:
+            bounds = [i * segment for i in range(n // segment)] + [n]
+        for a, b in itertools.pairwise(bounds):
+            pieces_U.append(u_i[a:b])
+            pieces_Y.append(y_i[a:b])
+    if len(pieces_U) == 1:
+        return model.fit_simulation(pieces_U[0], pieces_Y[0])
+    return model.fit_simulation(pieces_U, pieces_Y)

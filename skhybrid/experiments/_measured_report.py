@@ -1,0 +1,189 @@
+"""A measured run's report section and figure, and where a test leaves the hull."""
+
+import base64
+import html
+from pathlib import Path
+
+import numpy as np
+
+from skhybrid.experiments._store import SELECTION_FILE, _slug
+from skhybrid.model_selection import in_convex_hull
+
+__all__ = ["hull_exit", "measured_figure", "measured_section"]
+
+
+def hull_exit(train, test, n_init):
+    """First test index whose ``[y(t), y(t-1), u(t)]`` leaves the training hull."""
+
+    def rows(u, y):
+        y = np.ravel(y)
+        return np.column_stack([y[1:], y[:-1], np.asarray(u)[1:, 0]])
+
+    U, Y = train
+    inside = in_convex_hull(
+        rows(*test), np.vstack([rows(u, y) for u, y in zip(U, Y, strict=True)])
+    )
+    outside = np.flatnonzero(~inside) + 1
+    return (int(outside[0]) if outside.size else None), int(outside.size)
+
+
+def measured_figure(run, out_dir):
+    """Draw the test records and each model's free run (first seed); return the path.
+
+    Parameters
+    ----------
+    run : MeasuredRun
+        A finished run.
+    out_dir : Path
+        Where ``<system>.png`` is written.
+
+    Returns
+    -------
+    path : Path
+        The figure's file.
+    """
+    # The object-oriented Figure API draws without pyplot: no backend is chosen
+    # and a user's own plotting session is left alone.
+    from matplotlib.figure import Figure
+
+    result = run.results[0]
+    system, tests, n_init, dt = result.system, result.tests, result.n_init, result.dt
+    fig = Figure(figsize=(7 * max(1, len(tests)), 6))
+    axes = fig.subplots(2, max(1, len(tests)), sharex="col", squeeze=False)
+    for j, (split, (_u, y)) in enumerate(tests.items()):
+        t = np.arange(len(y)) * dt
+        top, bottom = axes[0, j], axes[1, j]
+        top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
+        errors = {}
+        for i, (label, pred) in enumerate(result.predictions[split].items()):
+            if not np.all(np.isfinite(pred)):
+                continue  # a failed free run is reported in the tables
+            top.plot(t, system.scale * pred, lw=0.8, label=label, color=f"C{i}")
+            err = system.scale * (pred - np.ravel(y))
+            err[:n_init] = np.nan
+            # The black-box models' errors can be 100 times larger: the error
+            # panel shows the physics-based ones, the largest drawn first.
+            if label.startswith(("physics", "state-space")):
+                errors[label] = (i, err)
+        order = sorted(errors, key=lambda k: -np.nanmean(errors[k][1] ** 2))
+        for label in order:
+            i, err = errors[label]
+            bottom.plot(t, err, lw=0.6, label=label, color=f"C{i}")
+        bottom.legend(fontsize=7)
+        for ax in (top, bottom):
+            ax.axvspan(0, n_init * dt, color="0.9")
+            hull = result.hull.get(split)
+            if hull and hull["first_outside"] is not None:
+                ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
+        top.set_title(f"{system.title}: {split} (seed {result.settings.seed})")
+        unit = system.unit
+        top.set_ylabel(f"output [{unit}]")
+        bottom.set_ylabel(f"simulation error [{unit}]\n(physics-based models)")
+        bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
+        top.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(out_dir) / f"{_slug(system.name)}.png"
+    fig.savefig(path, dpi=90)
+    return path
+
+
+def _figure_text(spread):
+    if spread["mean"] is None:
+        return "failed"
+    text = f"{spread['mean']:.4g} &plusmn; {spread['std']:.2g}"
+    if spread.get("n_failed"):
+        text += f" ({spread['n_failed']} failed)"
+    return text
+
+
+def measured_section(run, figure):
+    """The report's HTML section of a measured run.
+
+    Parameters
+    ----------
+    run : MeasuredRun
+        A finished run.
+    figure : Path
+        Its figure, embedded in the page.
+
+    Returns
+    -------
+    section : str
+        HTML.
+    """
+    summary = run.summary()
+    unit = html.escape(summary["unit"])
+    seeds = ", ".join(str(s) for s in summary["seeds"])
+    rows = []
+    for split, scores in summary["test_rmse"].items():
+        chosen = summary["chosen_test_rmse"][split]
+        rows.append(
+            f"<tr><td>{html.escape(split)}</td><td><b>chosen on validation</b></td>"
+            f"<td><b>{_figure_text(chosen)}</b></td><td></td><td>ours</td></tr>"
+        )
+        for model, spread in scores.items():
+            validation = [
+                v[model] for v in summary["validation_rmse"].values() if model in v
+            ]
+            val = f"{np.mean(validation):.4g}" if validation else ""
+            rows.append(
+                f"<tr><td>{html.escape(split)}</td><td>{html.escape(model)}</td>"
+                f"<td>{_figure_text(spread)}</td><td>{val}</td><td>ours</td></tr>"
+            )
+        for label, entry in summary["published"].get(split, {}).items():
+            rows.append(
+                f"<tr><td>{html.escape(split)}</td><td>{html.escape(label)}</td>"
+                f"<td>{entry['rmse']:.4g}</td><td></td>"
+                f"<td>{html.escape(entry['source'])}</td></tr>"
+            )
+    # Published figures of another protocol (another record, split or
+    # initialisation) are listed apart: they are not comparable with the table.
+    apart = "".join(
+        f"<li>{html.escape(group)}: {html.escape(label)} {entry['rmse']:.4g} "
+        f"[{unit}] ({html.escape(entry['source'])})</li>"
+        for group, table in summary["published"].items()
+        if group not in summary["test_rmse"]
+        for label, entry in table.items()
+    )
+    if apart:
+        apart = (
+            f"<p>Published under another protocol (not comparable):</p><ul>{apart}</ul>"
+        )
+    params = "; ".join(
+        f"seed {seed}: "
+        + ", ".join(
+            f"{html.escape(k)} = {float(v):.5g}"
+            for k, v in values.items()
+            if np.ndim(v) == 0
+        )
+        for seed, values in summary["physics_params"].items()
+    )
+    data = base64.b64encode(Path(figure).read_bytes()).decode("ascii")
+    chosen = ", ".join(
+        f"seed {s}: {html.escape(str(m))}" for s, m in summary["chosen_model"].items()
+    )
+    notes = (
+        f"<p>Candidates: {html.escape(summary['notes'])}</p>"
+        if summary["notes"]
+        else ""
+    )
+    return f"""<h2>{html.escape(summary["title"])}</h2>
+<p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
+deviation over seeds {seeds} (each seed a full selection); the first
+{summary["n_init"]} measured samples initialise the state. Every model was fitted
+on the estimation records only; every choice (window and segment lengths, the
+hybrid's horizon T, the model quoted) was made on the last 25 % of each record,
+with the candidates fitted on the first 75 %.
+quick = {summary["quick"]}, {summary["wall_time_s"]:.0f} s.</p>
+<p>Sealed selection: <code>{SELECTION_FILE}</code>, SHA-256
+<code>{summary["selection_sha256"]}</code>, written before any test record was
+read.</p>{notes}
+<table><tr><th>test</th><th>model</th><th>RMSE [{unit}]</th>
+<th>validation RMSE [{unit}] (mean)</th><th>source</th></tr>
+{"".join(rows)}</table>
+<p>Chosen on the validation tails (never on a test record): {chosen}.</p>
+{apart}
+<p>Physics parameters: {params}</p>
+<h4>Test records and free runs (seed {summary["seeds"][0]})</h4>
+<img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>
+"""

@@ -1,0 +1,519 @@
+"""A measured system in the pipeline: its spec, settings and result.
+
+A measured system, a user's or a built-in benchmark of :mod:`skhybrid.benchmarks`,
+is a :class:`~skhybrid.experiments.SystemSpec` run through the pipeline
+(:func:`~skhybrid.experiments.run_experiment`): its estimation records are loaded,
+its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on them only,
+and its :class:`MeasuredResult` holds the fits, the selection and, once the
+selection is sealed, the test records' free runs.
+"""
+
+import json
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+from joblib import delayed
+
+from skhybrid.experiments._measured_zoo import (
+    MeasuredContext,
+    _rmse,
+    _tail_split,
+    fit_model,
+    zoo,
+)
+from skhybrid.experiments._pickling import check_picklable
+from skhybrid.experiments._spec import SystemSpec
+
+__all__ = ["MeasuredResult", "MeasuredSettings", "MeasuredSystem"]
+
+
+#: Most residual evaluations of a physics' fit in a quick run.
+QUICK_NFEV = 20
+
+
+@dataclass(frozen=True)
+class MeasuredSettings:
+    """What makes two runs of a measured benchmark the same.
+
+    Parameters
+    ----------
+    quick : bool, default=False
+        Shorter fits, fewer candidates (and a shorter Silverbox estimation
+        record).
+    seed : int, default=0
+        Seed of the networks.
+    """
+
+    quick: bool = False
+    seed: int = 0
+
+    def with_seed(self, seed):
+        """The same settings with another seed.
+
+        Parameters
+        ----------
+        seed : int
+            Seed of the networks.
+
+        Returns
+        -------
+        settings : MeasuredSettings
+            A copy with ``seed``.
+        """
+        return replace(self, seed=seed)
+
+    def to_dict(self):
+        """The settings as a JSON-ready dict.
+
+        Returns
+        -------
+        settings : dict
+            Every field.
+        """
+        return asdict(self)
+
+
+class MeasuredSystem:
+    """A measured system in the pipeline: its :class:`SystemSpec`, the runner's hooks.
+
+    The runner calls :meth:`default_settings`, :meth:`new_result`,
+    :meth:`model_zoo` and :meth:`job`; the zoo reads the physics and the
+    candidates through the system. A user's system wraps a spec
+    (:meth:`from_spec`); a built-in benchmark builds its spec from its files
+    (:meth:`make_spec`).
+
+    Parameters
+    ----------
+    spec : SystemSpec or None, default=None
+        The system; None for a built-in benchmark, whose spec is built from
+        its files.
+    """
+
+    #: Runs on measured records, not on simulated splits.
+    measured = True
+    name = ""
+    title = ""
+    unit = ""
+    #: Factor from the data's units to the official reporting units.
+    scale = 1.0
+    #: Whether the zoo holds state-space hybrids (without reading any record).
+    hybrids = True
+
+    def __init__(self, spec=None, *, module=None):
+        self._spec = spec
+        self._module = module
+        if module is not None:
+            self.name = module.NAME
+            self.title = module.TITLE
+            self.unit = module.UNIT
+            self.scale = float(module.SCALE)
+            self.hybrids = getattr(module, "HYBRIDS", True)
+        if spec is not None:
+            self.name = spec.name
+            self.title = spec.title or spec.name
+            self.unit = spec.unit
+            self.scale = float(spec.scale)
+            self.hybrids = spec.has_hybrids()
+
+    @classmethod
+    def builtin(cls, module):
+        """The system of a built-in benchmark's module (its spec not built yet).
+
+        Parameters
+        ----------
+        module : module
+            A measured benchmark of :mod:`skhybrid.benchmarks`: its ``NAME``,
+            ``TITLE``, ``UNIT``, ``SCALE``, ``make_spec(data, *, quick)`` and,
+            where its zoo holds no state-space hybrid, ``HYBRIDS = False`` (known
+            before its files are read).
+
+        Returns
+        -------
+        system : MeasuredSystem
+            Its spec is built from the benchmark's files when the run binds it.
+        """
+        return cls(module=module)
+
+    @classmethod
+    def from_spec(cls, spec):
+        """The system of a user's spec.
+
+        Parameters
+        ----------
+        spec : SystemSpec
+            The system.
+
+        Returns
+        -------
+        system : MeasuredSystem
+            Bound to ``spec``.
+        """
+        if not isinstance(spec, SystemSpec):
+            raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
+        check_picklable(spec)
+        return cls(spec)
+
+    def make_spec(self, data=None, quick=False):
+        """The system's spec (a built-in benchmark builds it from its files).
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            A built-in benchmark's quick form (a shorter Silverbox record).
+
+        Returns
+        -------
+        spec : SystemSpec
+            The system.
+        """
+        if self._spec is not None:
+            return self._spec
+        module = self._module
+        if module is None:
+            raise NotImplementedError(
+                f"{type(self).__name__} has no spec: build it with from_spec(spec)"
+            )
+        return module.make_spec(data, quick=quick)
+
+    @property
+    def spec(self):
+        """The spec the system is bound to (after :meth:`new_result`)."""
+        if self._spec is None:
+            raise AttributeError(f"{self.name}: no spec bound yet (call new_result)")
+        return self._spec
+
+    def bind(self, data=None, quick=False):
+        """A copy of the system bound to its spec.
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            A built-in benchmark's quick form.
+
+        Returns
+        -------
+        system : MeasuredSystem
+            With :attr:`spec` set.
+        """
+        if self._spec is not None:
+            return self
+        return type(self)(self.make_spec(data, quick))
+
+    def check_files(self, data=None, quick=False):
+        """Load and check the estimation records (a bad file raises here).
+
+        Parameters
+        ----------
+        data : str or Path or None, default=None
+            A built-in benchmark's data folder; None fetches its files.
+        quick : bool, default=False
+            The quick form.
+        """
+        self.bind(data, quick).spec.estimation_records()
+
+    # -- what the zoo reads --------------------------------------------------------
+    @property
+    def physics_inputs(self):
+        return self.spec.physics_inputs
+
+    @property
+    def hybrid_records(self):
+        return self.spec.hybrid_records
+
+    def physics(self, U, Y, dt, quick=False):
+        """An unfitted physics for the records (its fit shortened when quick)."""
+        model = self.spec.make_physics(U, Y, dt)
+        if quick and "max_nfev" in model.get_params(deep=False):
+            limit = model.get_params(deep=False)["max_nfev"]
+            model.set_params(
+                max_nfev=QUICK_NFEV if limit is None else min(limit, QUICK_NFEV)
+            )
+        return model
+
+    def segment_candidates(self, ctx):
+        """The physics' segment lengths to try on the fitting parts of ``ctx``."""
+        segments = self.spec.segment_candidates(_fit_lengths(ctx))
+        return segments[:1] if ctx.quick else segments
+
+    def has_hybrids(self, quick=False):
+        """Whether the zoo holds state-space hybrids."""
+        return bool(self.hybrids)
+
+    def hybrid_candidates(self, ctx):
+        """The state-space hybrids to try, by label (quick: the first, shortened)."""
+        candidates = self.spec.hybrid_candidates(_fit_lengths(ctx))
+        if ctx.quick and candidates:
+            label, settings = next(iter(candidates.items()))
+            quick = dict(settings, max_epochs=min(settings.get("max_epochs", 6), 6))
+            quick["hidden_layer_sizes"] = (16, 16)
+            return {label: quick}
+        return candidates
+
+    def published(self):
+        """The published test figures, ``{split: {label: (rmse, source)}}``."""
+        if self._spec is not None:
+            return self._spec.published
+        return getattr(self._module, "PUBLISHED", {})
+
+    # -- the runner's hooks ----------------------------------------------------
+    def default_settings(self, quick=False, seed=0):
+        """The run's settings.
+
+        Parameters
+        ----------
+        quick : bool, default=False
+            Shorter fits.
+        seed : int, default=0
+            Seed of the networks.
+
+        Returns
+        -------
+        settings : MeasuredSettings
+            ``quick`` and ``seed``.
+        """
+        return MeasuredSettings(quick=bool(quick), seed=int(seed))
+
+    def store_key(self, settings):
+        """The run folder's name for this system's models at ``settings``' seed."""
+        return f"{self.name}-seed-{settings.seed}"
+
+    def new_result(self, settings, data):
+        """Load the estimation records and return an empty :class:`MeasuredResult`.
+
+        No test record is read: they are read once the selection is sealed.
+
+        Parameters
+        ----------
+        settings : MeasuredSettings
+            ``quick`` and ``seed``.
+        data : str or Path or None
+            A built-in benchmark's data folder; None fetches its files.
+
+        Returns
+        -------
+        result : MeasuredResult
+            The bound system, the records, ``n_init`` and ``dt``; no model yet.
+        """
+        system = self.bind(data, settings.quick)
+        U, Y = system.spec.estimation_records()
+        return MeasuredResult(
+            system, settings, (U, Y), system.spec.n_init, system.spec.sample_period()
+        )
+
+    def model_zoo(self, settings):
+        """The zoo's models (see :func:`skhybrid.experiments._measured_zoo.zoo`).
+
+        Parameters
+        ----------
+        settings : MeasuredSettings
+            ``quick`` gives fewer candidates.
+
+        Returns
+        -------
+        zoo : dict of str to ZooModel
+            In the order the report lists them.
+        """
+        return zoo(self, settings.quick)
+
+    def job(self, name, model, result, deps, sink=None):
+        """The joblib call that chooses and refits one model.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        model : ZooModel
+            Its candidates and fit.
+        result : MeasuredResult
+            The records and settings (its system is bound to the spec).
+        deps : dict of str to dict
+            The fits of the models it requires.
+        sink : object or None, default=None
+            Where networks report their epochs.
+
+        Returns
+        -------
+        call : tuple
+            A :func:`joblib.delayed` call of
+            :func:`~skhybrid.experiments._measured_zoo.fit_model`.
+        """
+        U, Y = result.train
+        ctx = MeasuredContext(
+            result.system,
+            U,
+            Y,
+            int(result.n_init),
+            float(result.dt),
+            result.settings.quick,
+            result.settings.seed,
+        )
+        return delayed(fit_model)(name, model, ctx, deps, sink)
+
+
+def _fit_lengths(ctx):
+    """Lengths of the records' fitting parts (before their validation tails)."""
+    (U_fit, _), _ = _tail_split(ctx.U, ctx.Y)
+    return [len(u) for u in U_fit]
+
+
+class MeasuredResult:
+    """One seed's run of one measured system: the selection, then its test scores.
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The system, bound to its spec.
+    settings : MeasuredSettings
+        ``quick`` and ``seed``.
+    train : tuple of list of ndarray
+        The estimation records ``(U, Y)``.
+    n_init : int
+        Samples of the initialisation window.
+    dt : float
+        Sample period.
+
+    Attributes
+    ----------
+    tests : dict of str to tuple of ndarray
+        ``{split: (u, y)}``: the test records, empty until the selection is
+        sealed (:func:`~skhybrid.experiments._sealed.score_tests`).
+    predictions : dict of str to dict of str to ndarray
+        ``predictions[split][model]``: the free run over each test record (NaN
+        where it failed), in the data's units.
+    rows : list of dict
+        One row per model and test record (``results.csv``).
+    params : dict of str to dict
+        Fitted physical parameters and standard errors.
+    fits : dict of str to dict
+        Fit time, epochs, warnings, validation RMSE and the choices of each
+        model.
+    estimators : dict of str to object
+        The fitted models (loaded from the run folder where resumed).
+    hull : dict
+        On the Silverbox arrow: the first test sample whose window leaves the
+        training hull, and how many do.
+    wall_time : float
+        Seconds for the selection.
+    """
+
+    def __init__(self, system, settings, train, n_init, dt):
+        self.system = system
+        self.settings = settings
+        self.train = train
+        self.tests = {}
+        self.n_init = int(n_init)
+        self.dt = float(dt)
+        self.predictions = {}
+        self.rows = []
+        self.params = {}
+        self.fits = {}
+        self.estimators = {}
+        self.hull = {}
+        #: First scored sample of each test record (default: ``n_init``).
+        self.score_start = {}
+        self.wall_time = float("nan")
+
+    @property
+    def store_key(self):
+        return self.system.store_key(self.settings)
+
+    @property
+    def test_splits(self):
+        return list(self.tests)
+
+    def test_rmse(self, split, model):
+        """Free-run RMSE of ``model`` on the test record ``split`` (official units).
+
+        Parameters
+        ----------
+        split : str
+            A test record's name.
+        model : str
+            A model's name.
+
+        Returns
+        -------
+        rmse : float
+            NaN where the free run failed.
+        """
+        y = self.tests[split][1]
+        start = self.score_start.get(split, self.n_init)
+        return self.system.scale * _rmse(y, self.predictions[split][model], start)
+
+    def validation_rmse(self):
+        """``{model: validation-tail RMSE}`` (official units) of the quoted models."""
+        return {
+            model: fit["validation_rmse"]
+            for model, fit in self.fits.items()
+            if fit.get("validation_rmse") is not None
+            and np.isfinite(fit["validation_rmse"])
+        }
+
+    def selected_model(self):
+        """The model to quote: the lowest free-run RMSE on the validation tails."""
+        validation = self.validation_rmse()
+        return min(validation, key=validation.get) if validation else None
+
+    def model_rows(self, split, model):
+        """The scores of one model on one test record, as rows of results.csv.
+
+        Parameters
+        ----------
+        split : str
+            A test record's name.
+        model : str
+            A model's name.
+
+        Returns
+        -------
+        rows : list of dict
+            One row (one output).
+        """
+        fit = self.fits.get(model, {})
+        return [
+            {
+                "system": self.system.name,
+                "seed": self.settings.seed,
+                "model": model,
+                "split": split,
+                "output": "y",
+                "rmse": self.test_rmse(split, model),
+                "unit": self.system.unit,
+                "validation_rmse": fit.get("validation_rmse"),
+                "chosen": model == self.selected_model(),
+                "fit_time_s": fit.get("fit_time"),
+                "n_epochs": fit.get("n_epochs"),
+            }
+        ]
+
+    def selection(self):
+        """What was chosen at this seed, before any test record was read.
+
+        Returns
+        -------
+        selection : dict
+            The settings, each model's candidates with their validation RMSE
+            and choice, the validation RMSE of each model, the chosen model and
+            the physics' fitted parameters.
+        """
+        physics = self.params.get("physics", {})
+        return {
+            "seed": self.settings.seed,
+            "settings": self.settings.to_dict(),
+            "models": {
+                model: _jsonable(fit.get("selection"))
+                for model, fit in self.fits.items()
+            },
+            "validation_rmse": self.validation_rmse(),
+            "chosen_model": self.selected_model(),
+            "physics_params": {k: p["value"] for k, p in physics.items()},
+        }
+
+
+def _jsonable(value):
+    """``value`` with floats that JSON writes the same way every time."""
+    return json.loads(json.dumps(value, default=str))

@@ -53,12 +53,19 @@ def measured_figure(run, out_dir):
     for j, (split, (_u, y)) in enumerate(tests.items()):
         t = np.arange(len(y)) * dt
         top, bottom = axes[0, j], axes[1, j]
-        top.plot(t, system.scale * np.ravel(y), "k", lw=1.0, label="measured")
+        measured = system.scale * np.ravel(y)
+        top.plot(t, measured, "k", lw=1.0, label="measured")
+        # The axis is the measured signal's (with a margin): a model that runs
+        # off it is clipped there and marked, not allowed to flatten the rest.
+        low, high = _limits(measured)
         errors = {}
         for i, (label, pred) in enumerate(result.predictions[split].items()):
             if not np.all(np.isfinite(pred)):
                 continue  # a failed free run is reported in the tables
-            top.plot(t, system.scale * pred, lw=0.8, label=label, color=f"C{i}")
+            shown = system.scale * np.asarray(pred, dtype=float)
+            if shown.min() < low or shown.max() > high:
+                label = f"{label} (off scale, clipped)"
+            top.plot(t, np.clip(shown, low, high), lw=0.8, label=label, color=f"C{i}")
             err = system.scale * (pred - np.ravel(y))
             err[:n_init] = np.nan
             # The black-box models' errors can be 100 times larger: the error
@@ -75,6 +82,7 @@ def measured_figure(run, out_dir):
             hull = result.hull.get(split)
             if hull and hull["first_outside"] is not None:
                 ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
+        top.set_ylim(low, high)
         top.set_title(f"{system.title}: {split} (seed {result.settings.seed})")
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
@@ -87,9 +95,73 @@ def measured_figure(run, out_dir):
     return path
 
 
-def _figure_text(spread):
+def _limits(measured, margin=0.25):
+    """The measured signal's range widened by ``margin`` of its span each side."""
+    finite = measured[np.isfinite(measured)]
+    if finite.size == 0:
+        return -1.0, 1.0
+    low, high = float(finite.min()), float(finite.max())
+    pad = margin * (high - low) or max(abs(high), 1.0) * margin
+    return low - pad, high + pad
+
+
+def failure_reason(run, split, model):
+    """Why ``model`` has no test figure on ``split``, in words (or None).
+
+    Parameters
+    ----------
+    run : MeasuredRun
+        A finished run.
+    split : str
+        A test record's name.
+    model : str
+        A model's name.
+
+    Returns
+    -------
+    reason : str or None
+        The first seed's reason: its fit failed, its free run diverged (with
+        the error), or the protocol is not defined for it.
+    """
+    for result in run.results:
+        fit = result.fits.get(model, {})
+        selection = fit.get("selection") or {}
+        if selection.get("failed"):
+            return f"not fitted: {selection['failed']}"
+        if split.endswith("_original_protocol"):
+            return (
+                "not defined: this protocol starts from a StateSpaceModel "
+                "physics' state"
+            )
+        error = selection.get("diverged_on_" + split)
+        if error:
+            return f"free run diverged: {error}"
+    return None
+
+
+def _params_text(params):
+    """The fitted physical parameters as ``name = value ± std``, settings left out.
+
+    A fixed parameter (a setting such as the sample period, or one the user
+    froze) was not fitted and is not listed; a parameter whose standard error
+    could not be computed shows its value alone.
+    """
+    if not params:
+        return "none"
+    items = []
+    for name, p in params.items():
+        if p.get("fixed") or np.ndim(p["value"]) != 0:
+            continue
+        text = f"{html.escape(name)} = {float(p['value']):.5g}"
+        if p.get("std") is not None and np.ndim(p["std"]) == 0:
+            text += f" &plusmn; {float(p['std']):.2g}"
+        items.append(text)
+    return ", ".join(items) or "none fitted"
+
+
+def _figure_text(spread, reason=None):
     if spread["mean"] is None:
-        return "failed"
+        return "failed" if reason is None else f"failed ({html.escape(reason)})"
     text = f"{spread['mean']:.4g} &plusmn; {spread['std']:.2g}"
     if spread.get("n_failed"):
         text += f" ({spread['n_failed']} failed)"
@@ -126,9 +198,13 @@ def measured_section(run, figure):
                 v[model] for v in summary["validation_rmse"].values() if model in v
             ]
             val = f"{np.mean(validation):.4g}" if validation else ""
+            reason = (
+                failure_reason(run, split, model) if spread["mean"] is None else None
+            )
             rows.append(
                 f"<tr><td>{html.escape(split)}</td><td>{html.escape(model)}</td>"
-                f"<td>{_figure_text(spread)}</td><td>{val}</td><td>ours</td></tr>"
+                f"<td>{_figure_text(spread, reason)}</td><td>{val}</td>"
+                "<td>ours</td></tr>"
             )
         for label, entry in summary["published"].get(split, {}).items():
             rows.append(
@@ -150,13 +226,8 @@ def measured_section(run, figure):
             f"<p>Published under another protocol (not comparable):</p><ul>{apart}</ul>"
         )
     params = "; ".join(
-        f"seed {seed}: "
-        + ", ".join(
-            f"{html.escape(k)} = {float(v):.5g}"
-            for k, v in values.items()
-            if np.ndim(v) == 0
-        )
-        for seed, values in summary["physics_params"].items()
+        f"seed {result.settings.seed}: " + _params_text(result.params.get("physics"))
+        for result in run.results
     )
     data = base64.b64encode(Path(figure).read_bytes()).decode("ascii")
     chosen = ", ".join(
@@ -183,7 +254,7 @@ read.</p>{notes}
 {"".join(rows)}</table>
 <p>Chosen on the validation tails (never on a test record): {chosen}.</p>
 {apart}
-<p>Physics parameters: {params}</p>
+<p>Physics parameters fitted (value &plusmn; standard error): {params}</p>
 <h4>Test records and free runs (seed {summary["seeds"][0]})</h4>
 <img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>
 """

@@ -259,6 +259,33 @@ def _section(result, figures, claims):
     return "\n".join(parts)
 
 
+def _title(results):
+    """The page's title: the systems' own titles where every one is measured."""
+    measured = [getattr(r.system, "measured", False) for r in results]
+    if all(measured):
+        return "; ".join(r.system.title or r.system.name for r in results)
+    if any(measured):
+        return "the paper's section 6 and measured systems"
+    return "the paper's section 6"
+
+
+def _settings(results):
+    """The settings table: a measured run's from its spec and seeds."""
+    first = results[0]
+    if not getattr(first.system, "measured", False):
+        return first.settings.to_dict()
+    return {
+        "system": first.system.name,
+        "seeds (each a full selection)": ", ".join(map(str, first.seeds)),
+        "quick": first.settings.quick,
+        "n_init (samples that start each free run)": first.results[0].n_init,
+        "dt [s]": first.results[0].dt,
+        "estimation records (samples)": ", ".join(
+            str(len(u)) for u in first.results[0].train[0]
+        ),
+    }
+
+
 def write_report(results, out_dir, *, command=None, wall_time=None):
     """Write ``results.csv``, ``results.json``, figures and ``report.html``.
 
@@ -328,16 +355,9 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
         json.dumps({"environment": environment, "systems": systems}, indent=1)
     )
 
-    measured = [getattr(r.system, "measured", False) for r in results]
-    if all(measured):
-        title = "measured benchmarks"
-    elif any(measured):
-        title = "the paper's section 6 and measured benchmarks"
-    else:
-        title = "the paper's section 6"
-    settings = results[0].settings.to_dict()
+    title = _title(results)
     settings_html = _table(
-        [{"setting": k, "value": v} for k, v in settings.items()],
+        [{"setting": k, "value": v} for k, v in _settings(results).items()],
         ["setting", "value"],
     )
     total = "" if wall_time is None else f"<p>Total wall time: {wall_time:.1f} s.</p>"

@@ -166,6 +166,16 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     rows = (out / "results.csv").read_text().splitlines()
     assert len(rows) == 1 + 3 * len(models)
 
+    # The report speaks of this machine and this run, not of benchmarks or seed 0.
+    page = (out / "report.html").read_text()
+    assert "<title>skhybrid: toy-machine</title>" in page
+    assert "measured benchmarks" not in page
+    assert "<td>0, 1, 2</td>" in page
+    # Fitted parameters with their standard errors; the fixed sample period is a
+    # setting, not a fitted parameter.
+    assert "k = " in page and "&plusmn;" in page.split("Physics parameters")[1]
+    assert "dt = " not in page.split("Physics parameters")[1]
+
 
 def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, capsys):
     # The same spec from the shell (one seed here): the same figures as Python.

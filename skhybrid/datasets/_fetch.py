@@ -362,19 +362,21 @@ def _fetch(key, data_home, mirror):
             for name in _valid(folder, spec)
         )
         raise OSError(
-            f"could not fetch the {key} benchmark: {'; '.join(errors)}. Without "
-            f"network access, download each missing file yourself and put it into "
-            f"{folder} under its name (subfolder included): {where} (or pass the "
-            f"folder holding them to skhybrid.datasets.load_{key})."
+            f"could not fetch the {key} benchmark. Download each missing file "
+            f"yourself and put it into {folder} under its name (subfolder "
+            f"included): {where} (or pass the folder holding them to "
+            f"skhybrid.datasets.load_{key}). Why the download failed: "
+            f"{'; '.join(errors)}"
         )
     files = ", ".join(spec.sha256)
     source = spec.archive or next(iter(spec.sha256))
     raise OSError(
-        f"could not fetch the {key} benchmark: {'; '.join(errors)}. Without network "
-        f"access, download {source} from {spec.url} yourself and put "
+        f"could not fetch the {key} benchmark. Download {source} from "
+        f"{spec.url} yourself and put "
         + (f"the files {files} from it" if spec.archive else "it")
         + f" into {folder} (or pass the folder holding them to "
-        f"skhybrid.datasets.load_{key}, or to `skhybrid run --data`)."
+        f"skhybrid.datasets.load_{key}, or to `skhybrid run --data`). "
+        f"Why the download failed: {'; '.join(errors)}"
     )
 
 

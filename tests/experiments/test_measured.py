@@ -272,6 +272,9 @@ def test_run_without_data_fetches_and_offline_says_what_to_do(
     assert err.count("\n") == 1, err  # one line
     assert "EMPS.zip" in err and str(tmp_path / "home" / "emps") in err
     assert "--data" in err
+    # The fix comes first; the connection errors after it.
+    fix, why = err.split("Why the download failed:")
+    assert "Download EMPS.zip" in fix and "127.0.0.1" not in fix and "127.0.0.1" in why
 
 
 def test_unknown_system_is_refused(tmp_path):

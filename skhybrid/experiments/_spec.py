@@ -226,7 +226,9 @@ class SystemSpec:
         test) starts from a record's first ``n_init`` measured outputs.
     dt : float or None, default=None
         Sample period in seconds; None reads it from the DataFrames' uniform
-        time index.
+        time index. A physics that takes a ``dt`` and was given none (a
+        continuous-time :class:`~skhybrid.domain.StateSpaceModel` written
+        without one) gets this one: say it once, here.
     tests : dict or callable or None, default=None
         ``{name: record}`` of test records, or a function of no argument
         returning it; read only after the selection is sealed.
@@ -517,13 +519,18 @@ class SystemSpec:
         Returns
         -------
         physics : estimator
-            Unfitted; with ``physics_starts``, its ``params`` updated by the
+            Unfitted; with the spec's ``dt`` where it takes a ``dt`` and has
+            none, and, with ``physics_starts``, its ``params`` updated by the
             first start and its ``starts`` the others.
         """
         if callable(self.physics) and not hasattr(self.physics, "get_params"):
             base = self.physics(U, Y, dt)
         else:
             base = clone(self.physics)
+        # The sample period is said once, on the spec: a physics that takes a
+        # ``dt`` and was given none gets the spec's.
+        if base.get_params(deep=False).get("dt", 0) is None:
+            base = clone(base).set_params(dt=float(dt))
         if not self.physics_starts:
             return base
         _check_takes_starts(base)  # a callable's physics is seen only now

@@ -514,3 +514,25 @@ def test_a_black_box_machine_runs_from_its_best_linear_approximation(machine, tm
     fitted = load_fitted(out, model="physics")
     u, y = machine.record(400, 7)
     assert np.all(np.isfinite(fitted.simulate(u, y[:10])))
+
+
+def test_the_spec_hands_its_sample_period_to_a_physics_without_one(machine):
+    from skhybrid.domain import StateSpaceModel
+
+    def spring(x, u, *, xp, k, c):
+        return xp.stack([x[:, 1], -k * x[:, 0] - c * x[:, 1] + u[:, 0]], axis=1)
+
+    physics = StateSpaceModel(
+        spring,
+        {"k": 1.0, "c": 0.4},
+        state_names=["position", "velocity (latent)"],
+        observed=["position"],
+        n_init=10,
+    )
+    spec = machine.make_spec(physics=physics, hybrids=None)
+    U, Y = spec.estimation_records()
+    made = spec.make_physics(U, Y, spec.sample_period())
+    assert made.dt == machine.DT and physics.dt is None  # the user's object kept
+    # A physics given its own dt keeps it.
+    spec = machine.make_spec(physics=physics.set_params(dt=0.05), hybrids=None)
+    assert spec.make_physics(U, Y, spec.sample_period()).dt == 0.05

@@ -82,6 +82,21 @@ def measured_figure(run, out_dir):
             hull = result.hull.get(split)
             if hull and hull["first_outside"] is not None:
                 ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
+        band = getattr(result, "bands", {}).get(split)
+        if band is not None:
+            level = result.stochastic.get("level", 0.95)
+            coverage = result.stochastic["tests"][split]["coverage"]
+            text = "n/a" if coverage is None else f"{100 * coverage:.0f} %"
+            top.fill_between(
+                t,
+                np.clip(system.scale * band[0], low, high),
+                np.clip(system.scale * band[1], low, high),
+                color="C0",
+                alpha=0.2,
+                lw=0,
+                label=f"{100 * level:.0f} % band of {result.selected_model()} "
+                f"(covers {text})",
+            )
         top.set_ylim(low, high)
         top.set_title(f"{system.title}: {split} (seed {result.settings.seed})")
         unit = system.unit
@@ -137,6 +152,70 @@ def failure_reason(run, split, model):
         if error:
             return f"free run diverged: {error}"
     return None
+
+
+def _p(value):
+    return "n/a" if value is None else f"{value:.3g}"
+
+
+def _stochastic_html(summary, unit):
+    """The stochastic part's subsection: residual tests, noise model, band."""
+    rows = []
+    for seed, part in summary.get("stochastic", {}).items():
+        noise = part.get("noise", {})
+        if not noise.get("fitted"):
+            reason = noise.get("reason", "no model chosen")
+            rows.append(
+                f"<tr><td>{seed}</td><td>{html.escape(str(part.get('model')))}</td>"
+                f"<td colspan='6'>no noise model: {html.escape(reason)}</td></tr>"
+            )
+            continue
+        lags = ", ".join(map(str, noise["lags"])) or "none (white)"
+        val = part.get("validation", {})
+        rows.append(
+            f"<tr><td>{seed}</td><td>{html.escape(part['model'])}</td>"
+            f"<td>validation tails</td><td>{_p(val.get('ljung_box_pvalue'))}</td>"
+            f"<td>{_p(val.get('input_correlation_pvalue'))}</td>"
+            f"<td>AR lags {lags}; std {noise['std']:.3g}, innovations "
+            f"{noise['innovation_std']:.3g}, mean {noise['mean']:.3g}</td>"
+            "<td></td></tr>"
+        )
+        for split, tests in part.get("tests", {}).items():
+            coverage = tests.get("coverage")
+            covered = "n/a" if coverage is None else f"{100 * coverage:.1f} %"
+            rows.append(
+                f"<tr><td>{seed}</td><td></td><td>{html.escape(split)}</td>"
+                f"<td>{_p(tests.get('ljung_box_pvalue'))}</td>"
+                f"<td>{_p(tests.get('input_correlation_pvalue'))}</td><td></td>"
+                f"<td>{covered}</td></tr>"
+            )
+    if not rows:
+        return ""
+    coverage = "; ".join(
+        f"{html.escape(split)}: {_coverage_text(spread)}"
+        for split, spread in summary.get("band_coverage", {}).items()
+    )
+    level = next(iter(summary["stochastic"].values())).get("level", 0.95)
+    return f"""<h4>The stochastic part of the chosen model</h4>
+<p>What the chosen model leaves: its free-run residuals over the validation
+tails (never a test record) are tested for whiteness (Ljung-Box) and for
+correlation with the inputs (missing input dynamics), and an autoregressive noise
+model is fitted to them [{unit}]. Its {100 * level:.0f} % simulation band,
+<code>y_sim + mean &plusmn; z std</code>, is laid on each test record's free run;
+its coverage is the share of test samples inside it (nominal {100 * level:.0f} %;
+lower means the residuals on test are larger than on validation). Coverage over
+seeds: {coverage}.</p>
+<table><tr><th>seed</th><th>chosen</th><th>residuals of</th>
+<th>Ljung-Box p</th><th>input correlation p</th><th>noise model</th>
+<th>band coverage</th></tr>
+{"".join(rows)}</table>
+"""
+
+
+def _coverage_text(spread):
+    if spread["mean"] is None:
+        return "n/a"
+    return f"{100 * spread['mean']:.1f} &plusmn; {100 * spread['std']:.1f} %"
 
 
 def _params_text(params):
@@ -238,6 +317,7 @@ def measured_section(run, figure):
         if summary["notes"]
         else ""
     )
+    stochastic = _stochastic_html(summary, unit)
     return f"""<h2>{html.escape(summary["title"])}</h2>
 <p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
 deviation over seeds {seeds} (each seed a full selection); the first
@@ -255,6 +335,7 @@ read.</p>{notes}
 <p>Chosen on the validation tails (never on a test record): {chosen}.</p>
 {apart}
 <p>Physics parameters fitted (value &plusmn; standard error): {params}</p>
+{stochastic}
 <h4>Test records and free runs (seed {summary["seeds"][0]})</h4>
 <img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>
 """

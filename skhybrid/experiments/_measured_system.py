@@ -396,6 +396,14 @@ class MeasuredResult:
     hull : dict
         On the Silverbox arrow: the first test sample whose window leaves the
         training hull, and how many do.
+    validation_runs : dict of str to list of ndarray
+        Each model's chosen candidate's free runs over the validation tails.
+    stochastic : dict
+        The chosen model's stochastic part once scored (see
+        :mod:`skhybrid.experiments._stochastic`).
+    bands : dict of str to tuple of ndarray
+        ``{split: (lower, upper)}``: the chosen model's simulation band on each
+        test record.
     wall_time : float
         Seconds for the selection.
     """
@@ -415,6 +423,9 @@ class MeasuredResult:
         self.hull = {}
         #: First scored sample of each test record (default: ``n_init``).
         self.score_start = {}
+        self.validation_runs = {}
+        self.stochastic = {}
+        self.bands = {}
         self.wall_time = float("nan")
 
     @property
@@ -424,6 +435,16 @@ class MeasuredResult:
     @property
     def test_splits(self):
         return list(self.tests)
+
+    def validation_blocks(self):
+        """The validation tails of the estimation records, ``(U, Y)``.
+
+        Returns
+        -------
+        U, Y : list of ndarray
+            The last 25 % of each record, the blocks every choice is made on.
+        """
+        return _tail_split(*self.train)[1]
 
     def test_rmse(self, split, model):
         """Free-run RMSE of ``model`` on the test record ``split`` (official units).

@@ -151,12 +151,19 @@ def _score(model, U, Y, n_init):
     """Pooled free-run RMSE of records from their first ``n_init`` outputs.
 
     Infinite where a free run failed or is not finite.
+
+    Returns
+    -------
+    score : float
+        The RMSE.
+    preds : list of ndarray
+        The free runs (NaN where one failed).
     """
     preds, errors = simulate_records(model, U, Y, n_init)
     if any(errors):
-        return float("inf")
+        return float("inf"), preds
     value = pooled_rmse(Y, preds, n_init)
-    return value if np.isfinite(value) else float("inf")
+    return (value if np.isfinite(value) else float("inf")), preds
 
 
 @dataclass(frozen=True)
@@ -499,13 +506,16 @@ def choose_and_refit(model, ctx, deps):
         Validation RMSE of every candidate (official units), the choice, on
         what the quoted model was fitted and, under ``errors``, why each
         candidate whose fit failed did (its exception's type and message).
+    runs : list of ndarray or None
+        The chosen candidate's free runs over the validation tails (None when
+        every candidate failed).
     """
     U, Y, n_init = ctx.U, ctx.Y, ctx.n_init
     (u_a, y_a), (u_b, y_b) = _tail_split(U, Y)
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
     on_part = {k: d["validation_fit"] for k, d in deps.items()}
-    scores, fitted, errors = {}, {}, {}
+    scores, fitted, errors, runs = {}, {}, {}, {}
     for key, candidate in candidates.items():
         t0 = time.perf_counter()
         try:
@@ -515,7 +525,9 @@ def choose_and_refit(model, ctx, deps):
             errors[str(key)] = f"{type(exc).__name__}: {exc}"
             logger.info("%s %s: %s", ctx.label, key, exc)
             continue
-        scores[key] = _score(fit, u_b, y_b, model.score_init(candidate, n_init))
+        scores[key], runs[key] = _score(
+            fit, u_b, y_b, model.score_init(candidate, n_init)
+        )
         fitted[key] = fit
         logger.info(
             "%s %s: validation %.4g (%.0f s)",
@@ -546,7 +558,11 @@ def choose_and_refit(model, ctx, deps):
         selection["errors"] = errors
     if isinstance(candidates[best], dict):
         selection["settings"] = {k: repr(v) for k, v in candidates[best].items()}
-    return chosen, validation_fit, selection
+    if best in runs:
+        # The chosen candidate's free runs over the validation tails, and the
+        # sample each is scored from: its residuals are the stochastic part.
+        selection["validation_start"] = int(model.score_init(candidates[best], n_init))
+    return chosen, validation_fit, selection, runs.get(best)
 
 
 def _n_epochs(model):
@@ -585,14 +601,15 @@ def fit_model(name, model, ctx, deps, sink=None):
     out : dict
         ``estimator``, ``extras`` (``validation_fit`` where kept),
         ``predictions`` (empty: no test record is simulated yet), ``fit_time``,
-        ``n_epochs``, ``params``, ``warnings``, ``validation_rmse`` and
-        ``selection``.
+        ``n_epochs``, ``params``, ``warnings``, ``validation_rmse``,
+        ``selection`` and ``validation_runs`` (the chosen candidate's free runs
+        over the validation tails).
     """
     ctx = replace(ctx, sink=sink, label=name)
     with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()
-        chosen, validation_fit, selection = choose_and_refit(model, ctx, deps)
+        chosen, validation_fit, selection, runs = choose_and_refit(model, ctx, deps)
         fit_time = time.perf_counter() - start
     if chosen is None:
         selection["failed"] = "every candidate's fit failed"
@@ -625,4 +642,5 @@ def fit_model(name, model, ctx, deps, sink=None):
         "warnings": messages,
         "validation_rmse": selection["validation_rmse"],
         "selection": selection,
+        "validation_runs": runs,
     }

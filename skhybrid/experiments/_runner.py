@@ -24,6 +24,9 @@ from skhybrid.experiments._zoo import model_zoo
 
 __all__ = ["ExperimentResult", "run_experiment"]
 
+#: Prefix of a measured model's stored free runs over its validation tails.
+VALIDATION = "validation/"
+
 logger = logging.getLogger(__name__)
 
 
@@ -358,8 +361,14 @@ def run_experiment(
             result.params[name] = record["params"]
         if measured:  # its test records are simulated once the selection is sealed
             result.estimators[name] = folder.load_estimator(key, record)
+        runs = {}
         for split, pred in folder.load_predictions(key, record).items():
-            result.predictions[split][name] = pred
+            if split.startswith(VALIDATION):
+                runs[int(split[len(VALIDATION) :])] = pred
+            else:
+                result.predictions[split][name] = pred
+        if runs:
+            result.validation_runs[name] = [runs[i] for i in sorted(runs)]
 
     # The slowest fits (recurrent and state-space hybrids) first, so parallel
     # workers finish together.
@@ -461,6 +470,13 @@ def _record(result, name, out, folder):
         split: np.asarray(pred, dtype=float)
         for split, pred in out["predictions"].items()
     }
+    stored = dict(predictions)
+    if out.get("validation_runs") is not None:
+        # A measured model's free runs over the validation tails: the
+        # stochastic part of the report reads them, and a resume restores them.
+        runs = [np.asarray(run, dtype=float) for run in out["validation_runs"]]
+        result.validation_runs[name] = runs
+        stored.update({f"{VALIDATION}{i}": run for i, run in enumerate(runs)})
     result.fits[name] = fit
     if hasattr(result, "estimators"):
         result.estimators[name] = out["estimator"]
@@ -476,7 +492,7 @@ def _record(result, name, out, folder):
             result.store_key,
             name,
             out["estimator"],
-            predictions,
+            stored,
             {"fit": fit, "params": out["params"], "scores": scores},
             extras=out.get("extras"),
         )

@@ -20,6 +20,12 @@ from skhybrid.experiments._measured_report import hull_exit
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._spec import records_digest
+from skhybrid.experiments._stochastic import (
+    BAND_LEVEL,
+    band_coverage,
+    fit_noise,
+    residual_tests,
+)
 from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
 
 __all__ = [
@@ -164,6 +170,68 @@ def score_tests(result, tests, folder=None):
         for model in result.predictions[split]
         for row in result.model_rows(split, model)
     ]
+    result.stochastic = stochastic_part(result)
+
+
+def stochastic_part(result):
+    """The chosen model's residual tests, noise model and band coverage.
+
+    The noise model is fitted on the chosen model's free-run residuals over the
+    validation tails (never on a test record); its band is then laid on each
+    test record's free run.
+
+    Parameters
+    ----------
+    result : MeasuredResult
+        A seed's result, scored on its test records.
+
+    Returns
+    -------
+    stochastic : dict
+        ``model``, ``level``, ``validation`` (residual tests), ``noise`` (the
+        noise model's description) and ``tests`` (``{split: residual tests and
+        coverage}``); ``{"model": None}`` where no model was chosen, and
+        ``noise.fitted`` False with the reason where no noise model could be
+        fitted.
+    """
+    model = result.selected_model()
+    runs = result.validation_runs.get(model)
+    if model is None or runs is None:
+        return {"model": model, "level": BAND_LEVEL, "noise": {"fitted": False}}
+    start = int(result.fits[model].get("selection", {}).get("validation_start", 0))
+    U_b, Y_b = result.validation_blocks()
+    residuals = [
+        np.ravel(y)[start:] - np.ravel(p)[start:]
+        for y, p in zip(Y_b, runs, strict=True)
+    ]
+    inputs = np.vstack([np.asarray(u)[start:] for u in U_b])
+    scale = result.system.scale
+    noise, description = fit_noise(residuals)
+    out = {
+        "model": model,
+        "level": BAND_LEVEL,
+        "validation": residual_tests(np.concatenate(residuals), inputs),
+        "noise": {
+            k: scale * v if k in ("innovation_std", "mean", "std") else v
+            for k, v in description.items()
+        },
+        "tests": {},
+    }
+    result.bands = {}
+    for split, (u, y) in result.tests.items():
+        pred = result.predictions[split].get(model)
+        begin = result.score_start.get(split, result.n_init)
+        if pred is None:
+            continue
+        tests = residual_tests(
+            np.ravel(y)[begin:] - np.ravel(pred)[begin:], np.asarray(u)[begin:]
+        )
+        tests["coverage"] = None
+        if noise is not None:
+            lower, upper, tests["coverage"] = band_coverage(y, pred, begin, noise)
+            result.bands[split] = (lower, upper)
+        out["tests"][split] = tests
+    return out
 
 
 #: Suffix of a test record scored from the estimation record's initial state.
@@ -312,7 +380,10 @@ class MeasuredRun:
             The selection's hash, the seeds, the chosen model of each seed and
             its test RMSE over seeds (mean, spread, each seed's), every model's
             test RMSE over seeds, validation RMSE by seed, the published
-            figures, the physics' parameters by seed, wall time and rows.
+            figures, the physics' parameters by seed, the chosen model's
+            stochastic part by seed (residual tests, noise model, band) and
+            its band's coverage of each test record over seeds, wall time and
+            rows.
         """
         by_model, chosen = self.test_summary()
         first = self.results[0]
@@ -349,6 +420,21 @@ class MeasuredRun:
                 for r in self.results
             },
             "hull": first.hull,
+            "stochastic": {str(r.settings.seed): r.stochastic for r in self.results},
+            "band_coverage": {
+                split: _spread(
+                    [
+                        np.nan
+                        if (r.stochastic.get("tests", {}).get(split) or {}).get(
+                            "coverage"
+                        )
+                        is None
+                        else r.stochastic["tests"][split]["coverage"]
+                        for r in self.results
+                    ]
+                )
+                for split in self.test_splits
+            },
             "notes": self.system.spec.notes,
             "fit_time_s": {
                 str(r.settings.seed): {k: f.get("fit_time") for k, f in r.fits.items()}

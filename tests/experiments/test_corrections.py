@@ -190,7 +190,7 @@ def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
         fit_errors=(FloatingPointError,),
         choice="level",
     )
-    chosen, on_part, selection = choose_and_refit(model, ctx, {})
+    chosen, on_part, selection, runs = choose_and_refit(model, ctx, {})
     (U_a, _), (U_b, _) = _tail_split(U, Y)
     assert [len(u) for u in U_a] == [300, 180] and [len(u) for u in U_b] == [100, 60]
     assert on_part.level == 1.9 and on_part.fitted_on == 480
@@ -198,6 +198,9 @@ def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
     assert selection["validation_rmse_by_candidate"]["bad"] == float("inf")
     # Why the failed candidate failed is kept in the run folder's record.
     assert selection["errors"] == {"bad": "FloatingPointError: diverged"}
+    # The chosen candidate's free runs over each tail, for the stochastic part.
+    assert [len(r) for r in runs] == [100, 60]
+    assert selection["validation_start"] == 10
     assert_allclose(selection["validation_rmse"], EMPS.scale * 0.1)
     if refit:
         assert chosen.fitted_on == 640 and calls[-1] == (1.9, 640, on_part)

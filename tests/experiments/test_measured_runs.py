@@ -346,6 +346,14 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
 
     assert _run(tmp_path / "uninterrupted") == 0
     assert _table(out) == _table(tmp_path / "uninterrupted")
+    # The validation runs come back from the folder: the stochastic part of a
+    # resumed run is the uninterrupted run's.
+    resumed, whole = (
+        json.loads((folder / "results.json").read_text())["systems"]["emps"]
+        for folder in (out, tmp_path / "uninterrupted")
+    )
+    assert resumed["stochastic"] == whole["stochastic"]
+    assert resumed["stochastic"]["0"]["noise"]["fitted"]
     assert {row["model"] for row in _table(out)} == set(TINY)
 
     summary = json.loads((out / "results.json").read_text())["systems"]["emps"]

@@ -166,6 +166,17 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     rows = (out / "results.csv").read_text().splitlines()
     assert len(rows) == 1 + 3 * len(models)
 
+    # The stochastic part of the chosen model, at every seed: residual tests on
+    # the validation tails and the test record, the noise model fitted on the
+    # validation residuals, and its band's coverage of the test record.
+    for seed, part in summary["stochastic"].items():
+        assert part["model"] == summary["chosen_model"][seed]
+        assert part["noise"]["fitted"] and part["noise"]["std"] > 0
+        assert 0 <= part["validation"]["ljung_box_pvalue"] <= 1
+        assert 0 <= part["tests"]["test"]["coverage"] <= 1
+    coverage = summary["band_coverage"]["test"]
+    assert len(coverage["by_seed"]) == 3 and 0 <= coverage["mean"] <= 1
+
     # The report speaks of this machine and this run, not of benchmarks or seed 0.
     page = (out / "report.html").read_text()
     assert "<title>skhybrid: toy-machine</title>" in page
@@ -175,6 +186,8 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     # setting, not a fitted parameter.
     assert "k = " in page and "&plusmn;" in page.split("Physics parameters")[1]
     assert "dt = " not in page.split("Physics parameters")[1]
+    assert "The stochastic part of the chosen model" in page
+    assert "band coverage" in page
 
 
 def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, capsys):

@@ -7,21 +7,33 @@
   the convex hull of the training fold, cut from different directions;
 - :class:`ExtrapolationSplit`: train inside a range of chosen features, test
   outside it (amplitude extrapolation);
-- :class:`ConvexHullSplitDisplay`: draws a split over two features.
+- :class:`ConvexHullSplitDisplay`: draws a split over two features;
+- :class:`RecordBlockSplit`: blocked cross-validation of records simulated in
+  free run, and :func:`take_pieces`, the arrays of its folds;
+- :class:`SimulationSearchCV`: chooses among candidate models by their
+  cross-validated free-run RMSE and refits the winner;
+- :class:`StackedSimulation`: a convex combination of models' free runs.
 """
 
 from skhybrid.model_selection._hull import in_convex_hull
 from skhybrid.model_selection._plot import ConvexHullSplitDisplay
+from skhybrid.model_selection._records import RecordBlockSplit, take_pieces
+from skhybrid.model_selection._search import SimulationSearchCV
 from skhybrid.model_selection._split import (
     ConvexHullSplit,
     ExtrapolationSplit,
     interpolation_extrapolation_split,
 )
+from skhybrid.model_selection._stacking import StackedSimulation
 
 __all__ = [
     "ConvexHullSplit",
     "ConvexHullSplitDisplay",
     "ExtrapolationSplit",
+    "RecordBlockSplit",
+    "SimulationSearchCV",
+    "StackedSimulation",
     "in_convex_hull",
     "interpolation_extrapolation_split",
+    "take_pieces",
 ]

@@ -10,7 +10,36 @@ differentiable for least squares and for torch; ``eps`` is a velocity well below
 the motion's (fix it with the model's ``fixed``).
 """
 
+from numbers import Real
+
+import numpy as np
+
 __all__ = ["asymmetric_friction", "coulomb_viscous_friction", "stribeck_friction"]
+
+
+def _check_positive(name, value, law):
+    """Raise unless ``value`` (a number, an array or a CPU tensor) is > 0.
+
+    ``eps = 0`` divides by zero (NaN at rest), a negative ``eps`` flips the
+    friction's sign and ``vs = 0`` is NaN at rest: each would reach the fit as
+    a silent NaN or a force that drives the motion. Tensors on an accelerator
+    are not checked, which would synchronise every step of a training loop.
+    """
+    if isinstance(value, bool):
+        raise TypeError(f"{name} of {law} must be a positive number; got {value!r}.")
+    if isinstance(value, Real):
+        ok = value > 0 and np.isfinite(value)
+    elif isinstance(value, np.ndarray):
+        ok = value.size == 0 or bool(np.all((value > 0) & np.isfinite(value)))
+    elif getattr(getattr(value, "device", None), "type", None) == "cpu":
+        ok = bool(((value > 0) & value.isfinite()).all())
+    else:
+        return
+    if not ok:
+        raise ValueError(
+            f"{name} of {law} must be a finite number > 0 (a velocity well below "
+            f"the motion's); got {name}={value!r}."
+        )
 
 
 def coulomb_viscous_friction(v, *, xp, Fc, Fv, eps=1e-4):
@@ -27,7 +56,7 @@ def coulomb_viscous_friction(v, *, xp, Fc, Fv, eps=1e-4):
     Fv : float
         Viscous coefficient (force per unit velocity).
     eps : float, default=1e-4
-        Velocity over which the sign is smoothed (``tanh(v / eps)``).
+        Velocity over which the sign is smoothed (``tanh(v / eps)``), > 0.
 
     Returns
     -------
@@ -41,6 +70,7 @@ def coulomb_viscous_friction(v, *, xp, Fc, Fv, eps=1e-4):
     >>> coulomb_viscous_friction(np.array([-1.0, 0.0, 2.0]), xp=np, Fc=20.0, Fv=5.0)
     array([-25.,   0.,  30.])
     """
+    _check_positive("eps", eps, "coulomb_viscous_friction")
     return Fv * v + Fc * xp.tanh(v / eps)
 
 
@@ -63,7 +93,7 @@ def asymmetric_friction(v, *, xp, Fc_pos, Fc_neg, Fv_pos, Fv_neg, eps=1e-4):
     Fv_pos, Fv_neg : float
         Viscous coefficients in each direction.
     eps : float, default=1e-4
-        Velocity over which the direction is blended.
+        Velocity over which the direction is blended, > 0.
 
     Returns
     -------
@@ -80,6 +110,7 @@ def asymmetric_friction(v, *, xp, Fc_pos, Fc_neg, Fv_pos, Fv_neg, eps=1e-4):
     ... )
     array([-245.,  170.])
     """
+    _check_positive("eps", eps, "asymmetric_friction")
     positive = 0.5 * (1.0 + xp.tanh(v / eps))
     return positive * (Fv_pos * v + Fc_pos) + (1.0 - positive) * (Fv_neg * v - Fc_neg)
 
@@ -100,11 +131,11 @@ def stribeck_friction(v, *, xp, Fc, Fs, vs, Fv, eps=1e-4):
     Fs : float
         Static (breakaway) friction force, at speeds well below ``vs``.
     vs : float
-        Stribeck velocity: the speed over which ``Fs`` falls to ``Fc``.
+        Stribeck velocity (> 0): the speed over which ``Fs`` falls to ``Fc``.
     Fv : float
         Viscous coefficient.
     eps : float, default=1e-4
-        Velocity over which the sign is smoothed.
+        Velocity over which the sign is smoothed, > 0.
 
     Returns
     -------
@@ -121,5 +152,7 @@ def stribeck_friction(v, *, xp, Fc, Fs, vs, Fv, eps=1e-4):
     >>> np.round(f, 2)
     array([29.9, 20. ])
     """
+    _check_positive("eps", eps, "stribeck_friction")
+    _check_positive("vs", vs, "stribeck_friction")
     level = Fc + (Fs - Fc) * xp.exp(-((v / vs) ** 2))
     return Fv * v + level * xp.tanh(v / eps)

@@ -54,3 +54,35 @@ def test_numpy_and_torch_agree_and_torch_differentiates(law, params):
     assert_allclose(out.detach().numpy(), law(V, xp=np, **params), rtol=1e-12)
     out.sum().backward()
     assert torch.all(torch.isfinite(v.grad))
+
+
+@pytest.mark.parametrize("eps", [0.0, -1e-4, np.nan, np.array([1e-4, 0.0])])
+@pytest.mark.parametrize(
+    "law",
+    [
+        lambda v, eps: coulomb_viscous_friction(v, xp=np, Fc=1, Fv=1, eps=eps),
+        lambda v, eps: asymmetric_friction(
+            v, xp=np, Fc_pos=1, Fc_neg=1, Fv_pos=1, Fv_neg=1, eps=eps
+        ),
+        lambda v, eps: stribeck_friction(v, xp=np, Fc=1, Fs=2, vs=0.1, Fv=1, eps=eps),
+    ],
+    ids=["coulomb_viscous", "asymmetric", "stribeck"],
+)
+def test_friction_laws_refuse_an_eps_that_is_not_positive(law, eps):
+    # eps=0 gave NaN at rest; a negative eps flipped the friction's sign.
+    with pytest.raises(ValueError, match=r"eps of \w+ must be a finite number > 0"):
+        law(V, eps)
+
+
+@pytest.mark.parametrize("vs", [0.0, -0.1, torch.tensor(0.0)])
+def test_stribeck_friction_refuses_a_stribeck_velocity_that_is_not_positive(vs):
+    # vs=0 gave NaN at rest.
+    with pytest.raises(ValueError, match="vs of stribeck_friction must be"):
+        stribeck_friction(V, xp=np, Fc=1, Fs=2, vs=vs, Fv=1)
+
+
+def test_friction_laws_accept_positive_tensor_parameters_with_gradients():
+    eps = torch.tensor(1e-3, requires_grad=True)
+    force = coulomb_viscous_friction(torch.tensor(V), xp=torch, Fc=1.0, Fv=1.0, eps=eps)
+    force.sum().backward()
+    assert torch.isfinite(eps.grad)

@@ -15,11 +15,17 @@ parameter and readable there as ``noise_model_``.
 """
 
 import warnings
+from numbers import Integral
 
 import numpy as np
 from sklearn.utils import check_random_state
 
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._sklearn_compat import (
+    Interval,
+    StrOptions,
+    validate_parameter_constraints,
+)
 from skhybrid.utils._transaction import TransactionalFitMixin
 
 __all__ = ["AutoRegressiveNoise", "GaussianNoise", "make_noise_model"]
@@ -152,6 +158,11 @@ class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
     ([1], 0.6)
     """
 
+    _parameter_constraints = {
+        "max_lag": [Interval(Integral, 1, None, closed="left")],
+        "ic": [StrOptions({"aic", "bic", "hqic"})],
+    }
+
     def __init__(self, max_lag=10, ic="bic"):
         self.max_lag = max_lag
         self.ic = ic
@@ -171,6 +182,12 @@ class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
         """
         from statsmodels.tsa.ar_model import AutoReg, ar_select_order
 
+        # Not a BaseEstimator (no get_params): validate the constraints directly.
+        validate_parameter_constraints(
+            self._parameter_constraints,
+            {"max_lag": self.max_lag, "ic": self.ic},
+            caller_name=type(self).__name__,
+        )
         r = _as_2d(residuals)
         n = r.shape[0]
         if n < 12:

@@ -11,6 +11,7 @@ from sklearn.utils._param_validation import (
     Interval,
     Options,
     StrOptions,
+    validate_parameter_constraints,
     validate_params,
 )
 from sklearn.utils.metaestimators import _BaseComposition
@@ -26,6 +27,7 @@ __all__ = [
     "_safe_indexing",
     "array_api_compat",
     "validate_data",
+    "validate_parameter_constraints",
     "validate_params",
     "visual_block",
 ]

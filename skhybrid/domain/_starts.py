@@ -28,8 +28,8 @@ START_ERRORS = (ValueError, ArithmeticError, SimulationDivergedError)
 __all__ = ["best_short_fit", "check_starts", "random_starts"]
 
 
-def check_starts(starts, params, fixed):
-    """Validate ``starts`` against a model's parameters.
+def check_starts(starts, params, fixed, bounds=None):
+    """Validate ``starts`` against a model's parameters and their bounds.
 
     Parameters
     ----------
@@ -39,6 +39,9 @@ def check_starts(starts, params, fixed):
         The model's starting values.
     fixed : sequence of str
         The model's fixed parameters.
+    bounds : dict of str to (float, float) or None, default=None
+        The model's bounds: a start outside them is refused, as ``params``
+        outside them are.
 
     Returns
     -------
@@ -53,7 +56,7 @@ def check_starts(starts, params, fixed):
             f"or None; got starts={starts!r}."
         )
     out = []
-    for start in starts:
+    for i, start in enumerate(starts):
         if not isinstance(start, dict):
             raise TypeError(
                 "every entry of starts must be a dict of free parameter values; "
@@ -68,10 +71,29 @@ def check_starts(starts, params, fixed):
                 )
             if not _finite_number(value):
                 raise ValueError(
-                    f"starts[...][{name!r}] must be a finite number; got {value!r}."
+                    f"starts[{i}][{name!r}] must be a finite number; got {value!r}."
+                )
+            lo, hi = _pair((bounds or {}).get(name))
+            if not lo <= value <= hi:
+                raise ValueError(
+                    f"starts[{i}][{name!r}] is {value!r}, outside its bounds "
+                    f"({lo}, {hi}); change the start or the bounds (a start outside "
+                    "them is refused as an initial value in params is)."
                 )
         out.append({name: float(value) for name, value in start.items()})
     return out
+
+
+def _pair(pair):
+    """``(lower, upper)`` of a bounds entry; unbounded where absent or malformed.
+
+    A malformed entry is reported by the fit itself, naming the parameter.
+    """
+    try:
+        lo, hi = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        return -np.inf, np.inf
+    return lo, hi
 
 
 def _finite_number(value):
@@ -141,7 +163,8 @@ def short_fit_start(model, method, *args):
         ``model.params``); None where the model has no ``starts`` or every
         short fit failed.
     """
-    starts = check_starts(model.starts, model.params, model.fixed)
+    bounds = model._resolved_bounds(model.params)
+    starts = check_starts(model.starts, model.params, model.fixed, bounds)
     if not starts:
         return None
     candidates = [dict(model.params)] + [{**model.params, **s} for s in starts]
@@ -209,16 +232,35 @@ def random_starts(model, n_starts, *, factor=5.0, random_state=None):
         raise ValueError(f"n_starts must be an int >= 1; got n_starts={n_starts!r}.")
     if not _finite_number(factor) or factor <= 1:
         raise ValueError(f"factor must be a finite number > 1; got factor={factor!r}.")
+    params = getattr(model, "params", None)
+    if not isinstance(params, dict) or not hasattr(model, "fixed"):
+        raise TypeError(
+            "model must be a model with params, fixed and bounds (a "
+            "StateSpaceModel); got "
+            f"model={model!r} of type {type(model).__name__}."
+        )
     rng = check_random_state(random_state)
-    bounds = model.bounds or {}
-    free = [k for k in model.params if k not in model.fixed]
+    # The bounds the fit checks the starts against (a model's defaults too).
+    resolve = getattr(model, "_resolved_bounds", None)
+    bounds = resolve(params) if resolve is not None else (model.bounds or {})
+    free = [k for k in params if k not in model.fixed]
+    for name in free:
+        try:
+            value = float(params[name])
+        except (TypeError, ValueError):
+            value = np.nan
+        if isinstance(params[name], bool) or not np.isfinite(value):
+            raise ValueError(
+                f"random_starts draws around the model's free parameters, which "
+                f"must be finite scalars; got params[{name!r}]={params[name]!r}."
+            )
     starts = []
     for _ in range(n_starts):
         start = {}
         for name in free:
-            value = float(model.params[name])
+            value = float(params[name])
             draw = value * float(np.exp(rng.uniform(-np.log(factor), np.log(factor))))
-            low, high = bounds.get(name, (-np.inf, np.inf))
+            low, high = _pair(bounds.get(name))
             start[name] = float(np.clip(draw, low, high))
         starts.append(start)
     return starts

@@ -121,8 +121,15 @@ def test_starts_compose_with_a_continuation(record):
         ([0.3], TypeError, "every entry of starts must be a dict"),
         ([{"r": 0.9}], ValueError, "starts names 'r', which is not a free"),
         ([{"q": 0.9}], ValueError, "starts names 'q'"),
-        ([{"w": float("nan")}], ValueError, r"starts\[...\]\['w'\] must be a finite"),
+        ([{"w": float("nan")}], ValueError, r"starts\[0\]\['w'\] must be a finite"),
         ([{"w": "fast"}], ValueError, r"got 'fast'"),
+        # Outside the bounds (0.01, 3.0): refused as params outside them are,
+        # where the short fit used to fail and drop the start in silence.
+        (
+            [{"w": 0.31}, {"w": 5.0}],
+            ValueError,
+            r"starts\[1\]\['w'\] is 5.0, outside its bounds \(0.01, 3.0\)",
+        ),
     ],
 )
 def test_bad_starts_are_named(record, starts, error, match):
@@ -160,3 +167,19 @@ def test_random_starts_lie_within_the_factor_and_the_bounds():
         random_starts(model, 0)
     with pytest.raises(ValueError, match="factor must be a finite number > 1"):
         random_starts(model, 3, factor=1.0)
+
+
+def test_random_starts_names_a_model_that_is_not_one():
+    # random_starts("x", 3) was an AttributeError.
+    with pytest.raises(TypeError, match=r"model must be .* got model='x' of type str"):
+        random_starts("x", 3)
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), [0.1, 0.2]])
+def test_random_starts_refuses_params_that_are_not_finite_scalars(value):
+    # NaN in params gave NaN starts.
+    model = StateSpaceModel(
+        ring, {"w": value, "r": 0.998}, state_names=["cos", "sin"], time="discrete"
+    )
+    with pytest.raises(ValueError, match=r"finite scalars; got params\['w'\]="):
+        random_starts(model, 3)

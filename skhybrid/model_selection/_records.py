@@ -305,13 +305,14 @@ samples, fewer than 8 * n_init = 16.'
         groups : object, default=None
             Ignored; a record is its own group.
 
-        Yields
-        ------
-        fit : list of tuple of (int, int, int)
-            ``(record_index, start, stop)`` of each fit piece, a separate record.
-        test : list of tuple of (int, int, int)
-            ``(record_index, start, stop)`` of each held-out block, one per record
-            that is cut. Use :func:`take_pieces` for the arrays.
+        Returns
+        -------
+        splits : generator of tuple of (list, list)
+            For each fold, ``fit`` and ``test``: the ``(record_index, start,
+            stop)`` slices of the fit pieces (each a separate record) and of the
+            held-out blocks (one per record that is cut). Use
+            :func:`take_pieces` for the arrays. The arguments are validated when
+            ``split`` is called, before the first fold.
         """
         U, Y = _check_records(U, Y)
         lengths = [len(u) for u in U]

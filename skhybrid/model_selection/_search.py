@@ -207,7 +207,7 @@ class SimulationSearchCV(BaseEstimator):
         means 1 unless in a :func:`joblib.parallel_config` context; -1 uses
         every processor.
     verbose : int, default=0
-        joblib's progress messages; 0 is silent.
+        Progress messages of joblib; 0 is silent.
 
     Attributes
     ----------

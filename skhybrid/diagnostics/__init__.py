@@ -17,11 +17,9 @@ The figures are scikit-learn style Displays (``from_estimator``,
 :class:`RMSEBoxDisplay` and :class:`DecompositionDisplay`.
 """
 
-from skhybrid.diagnostics._plot import (
-    DecompositionDisplay,
-    ResidualACFDisplay,
-    RMSEBoxDisplay,
-)
+from skhybrid.diagnostics._plot.decomposition import DecompositionDisplay
+from skhybrid.diagnostics._plot.residual_acf import ResidualACFDisplay
+from skhybrid.diagnostics._plot.rmse_box import RMSEBoxDisplay
 from skhybrid.diagnostics._report import (
     DiagnosticReport,
     diagnose,

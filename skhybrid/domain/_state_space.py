@@ -20,6 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
 from skhybrid.domain._starts import short_fit_start
+from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
@@ -41,8 +42,24 @@ from skhybrid.utils._transaction import transactional
 
 __all__ = ["StateSpaceModel"]
 
-# Residual given to least_squares where a simulation became non-finite.
+# Residual given to least_squares where a simulation became non-finite or ran
+# off (beyond this many times the largest measured output, at least 1).
 _DIVERGED_RESIDUAL = 1e6
+
+
+def _penalised(r, Y):
+    """``r`` with every diverged residual set to the penalty, and the penalty.
+
+    A trial step into an unstable region makes the free run overflow: its
+    residuals are inf or NaN, or finite but so large that their finite
+    differences overflow, and least_squares then stops inside scipy with
+    "array must not contain infs or NaNs". A bounded penalty there lets it
+    reject the step and shrink its region instead.
+    """
+    bound = _DIVERGED_RESIDUAL * max(1.0, float(np.max(np.abs(Y), initial=0.0)))
+    with np.errstate(invalid="ignore"):
+        diverged = ~(np.abs(r) <= bound)
+    return np.where(diverged, bound, r), bound
 
 
 class StateSpaceModel(DomainModel):
@@ -1120,6 +1137,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             Y_sim, x0 = self._simulate_records(U, Y, self.params_, structure)
         finally:
             del self._records
+        self._check_fitted_run(Y_sim, Y, mask, lengths)
         self.initial_states_ = x0
         err = (Y_sim - Y)[mask]
         self.rmse_ = float(np.sqrt(np.mean(err**2)))
@@ -1131,6 +1149,30 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             )
             self.noise_model_ = copy.deepcopy(self.noise_model).fit(residuals)
         return self
+
+    def _check_fitted_run(self, Y_sim, Y, mask, lengths):
+        """Raise where the fitted parameters' free run diverges on a record.
+
+        The penalty keeps least_squares going where a trial step diverges; a
+        fit that ends there has no model to give (its rmse_ would be inf), so
+        this is an error, named, rather than a warning.
+        """
+        with np.errstate(all="ignore"):
+            _, bound = _penalised(np.zeros(0), Y[mask])
+            run_off = ~(np.abs(Y_sim - Y) <= bound)
+        for i, n in enumerate(lengths):
+            bad = np.flatnonzero(np.any(run_off[i, :n], axis=1))
+            if bad.size:
+                params = {k: self.params_[k] for k in self._spec.free}
+                raise SimulationDivergedError(
+                    f"{type(self).__name__}.fit_simulation: the free run at the "
+                    f"fitted parameters {params} diverges (overflows or runs off "
+                    f"beyond {bound:.3g}) on record {i} from time step {bad[0]}, "
+                    f"so least_squares found no stable model from params="
+                    f"{self.params!r}. Start nearer a stable model (params, "
+                    "starts), bound the parameters to their stable range "
+                    "(bounds), or shorten the records."
+                )
 
     def _simulate_records(self, U, Y, params, structure):
         n_init = min(self.n_init, Y.shape[1])
@@ -1145,7 +1187,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         out, _ = self._simulate_records(U, Y, params, structure)
         with np.errstate(all="ignore"):
             r = (Y - out)[mask]
-        return np.where(np.isfinite(r), r, _DIVERGED_RESIDUAL)
+        return _penalised(r, Y[mask])[0]
 
     def _residual_vector(self, X, y, spec, xp):
         if getattr(self, "_records", None) is None:
@@ -1206,7 +1248,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         with np.errstate(all="ignore"):
             r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
         r = r.reshape(n_sets, -1)
-        return np.where(np.isfinite(r), r, _DIVERGED_RESIDUAL)
+        return _penalised(r, Y[mask])[0]
 
     def _batched_jacobian(self, spec):
         if not self._batched_records() or self.objective != "mse":

@@ -219,6 +219,37 @@ def _concat(parts, axis):
     return np.concatenate(parts, axis=axis)
 
 
+def _namespace_name(array):
+    """``"NumPy array"``, ``"torch tensor"`` or None for anything else."""
+    if isinstance(array, np.ndarray):
+        return "NumPy array"
+    kind = type(array)
+    if kind.__module__.startswith("torch") and kind.__name__ in (
+        "Tensor",
+        "Parameter",
+    ):
+        return "torch tensor"
+    return None
+
+
+def _check_same_namespace(reference, reference_name, **arrays):
+    """Raise a TypeError unless every array is of ``reference``'s kind.
+
+    Concatenating a tensor with an array would either fail deep in torch or
+    give NumPy silently, cutting the gradient of a differentiable step.
+    """
+    expected = _namespace_name(reference)
+    for name, array in arrays.items():
+        got = _namespace_name(array)
+        if array is not None and got != expected:
+            got = got or type(array).__name__
+            raise TypeError(
+                f"{name} is a {got} but {reference_name} a {expected}; give them "
+                "in one namespace (np.asarray(...) or torch.as_tensor(..., "
+                f"device={reference_name}.device))."
+            )
+
+
 def _check_count(value, name, minimum):
     if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
         raise ValueError(
@@ -403,11 +434,15 @@ class WindowLayout:
         return out
 
     def check(self, X, name="X"):
-        """Raise a ValueError when rows of ``X`` do not have this layout's width.
+        """Raise when ``X`` is not rows of this layout's width.
+
+        A TypeError when ``X`` is neither a NumPy array nor a torch tensor (the
+        result of every method follows ``X``'s namespace), a ValueError when
+        its shape is not ``(n_samples, n_features)``.
 
         Parameters
         ----------
-        X : array-like or tensor of shape (n_samples, n_features)
+        X : ndarray or tensor of shape (n_samples, n_features)
             Rows to check.
         name : str, default="X"
             How to name ``X`` in the error.
@@ -417,6 +452,12 @@ class WindowLayout:
         X : array-like or tensor
             ``X`` itself.
         """
+        if _namespace_name(X) is None:
+            raise TypeError(
+                f"{name} must be a NumPy array or a torch tensor of shape "
+                f"(n_samples, {self.n_features}); got a {type(X).__name__}. Convert "
+                f"it with np.asarray({name})."
+            )
         if X.ndim != 2 or X.shape[1] != self.n_features:
             raise ValueError(
                 f"{name} must have {self.n_features} columns ({self.n_steps} steps of "
@@ -460,6 +501,12 @@ class WindowLayout:
         X : array or tensor of shape (n_samples, n_features)
             Rows in this layout.
         """
+        if _namespace_name(states) is None:
+            raise TypeError(
+                "states must be a NumPy array or a torch tensor of shape (n_samples, "
+                f"{self.n_steps}, {self.n_states}); got a {type(states).__name__}."
+            )
+        _check_same_namespace(states, "states", inputs=inputs)
         n = self._check_shape(states, "states", (None, self.n_steps, self.n_states))
         if self.n_inputs:
             if inputs is None:
@@ -530,6 +577,7 @@ class WindowLayout:
             The shifted rows.
         """
         n = self.check(X).shape[0]
+        _check_same_namespace(X, "X", next_state=next_state, next_input=next_input)
         self._check_shape(next_state, "next_state", (n, self.n_states))
         parts = [X[:, self.step_width :], next_state]
         if self.n_inputs:

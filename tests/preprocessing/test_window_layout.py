@@ -201,3 +201,31 @@ def test_infer_n_steps_reads_the_window_length_from_ordered_rows(n_steps, n_inpu
     # A state that does not change continues under every length that fits.
     flat, flat_y = make_windows(np.zeros((20, 2)), n_steps=max(n_steps, 2))
     assert infer_n_steps(flat, flat_y) is None
+
+
+def test_layout_methods_name_rows_that_are_not_an_array():
+    # split([[0.0] * 9]) was an AttributeError ('list' has no attribute 'ndim').
+    layout = WindowLayout(n_states=1, n_inputs=2, n_steps=3)
+    for method in (layout.split, layout.newest_states, layout.check):
+        with pytest.raises(TypeError, match=r"X must be a NumPy array or a torch"):
+            method([[0.0] * 9])
+    with pytest.raises(TypeError, match="states must be a NumPy array"):
+        layout.join([[[0.0]] * 3])
+
+
+def test_shift_refuses_a_state_and_inputs_in_another_namespace():
+    torch = pytest.importorskip("torch")
+    layout = WindowLayout(n_states=1, n_inputs=1, n_steps=2)
+    X = torch.zeros((2, 4))
+    # A torch state with NumPy inputs returned NumPy silently, cutting the
+    # gradient of a differentiable step.
+    with pytest.raises(
+        TypeError, match="next_input is a NumPy array but X a torch tensor"
+    ):
+        layout.shift(X, torch.ones((2, 1)), np.ones((2, 1)))
+    with pytest.raises(TypeError, match="next_state is a list but X a torch tensor"):
+        layout.shift(X, [[1.0], [1.0]], torch.ones((2, 1)))
+    with pytest.raises(TypeError, match="next_state is a torch tensor but X a NumPy"):
+        layout.shift(np.zeros((2, 4)), torch.ones((2, 1)), np.ones((2, 1)))
+    out = layout.shift(X, torch.ones((2, 1)), torch.full((2, 1), 2.0))
+    assert torch.equal(out[0], torch.tensor([0.0, 0.0, 1.0, 2.0]))

@@ -92,16 +92,28 @@ def _fit_physics(physics, U, Y):
     return fitted, None, time.perf_counter() - t0
 
 
-def _build(estimator, settings, factory, physics):
+def _takes_random_state(estimator, factory):
+    if factory:
+        try:
+            return "random_state" in inspect.signature(estimator).parameters
+        except (TypeError, ValueError):
+            return False
+    return "random_state" in getattr(estimator, "get_params", dict)()
+
+
+def _build(estimator, settings, factory, physics, seed=None):
+    seeded = {}
+    if seed is not None and _takes_random_state(estimator, factory):
+        seeded = {"random_state": seed}
     if factory:
         # A copy per candidate: one that altered the physics in place would
         # otherwise change the others' (and differ between n_jobs=1 and 2).
-        return estimator(copy.deepcopy(physics), **settings)
-    return clone(estimator).set_params(**settings)
+        return estimator(copy.deepcopy(physics), **settings, **seeded)
+    return clone(estimator).set_params(**settings, **seeded)
 
 
 def _fit_and_score(
-    estimator, settings, factory, physics, U_fit, Y_fit, U_test, Y_test, n_init
+    estimator, settings, factory, physics, U_fit, Y_fit, U_test, Y_test, n_init, seed
 ):
     """Fit one candidate setting on a fold, simulate its held-out blocks, score."""
     out = {
@@ -117,7 +129,9 @@ def _fit_and_score(
         return out
     t0 = time.perf_counter()
     try:
-        model = _build(estimator, settings, factory, fitted_physics).fit(U_fit, Y_fit)
+        model = _build(estimator, settings, factory, fitted_physics, seed).fit(
+            U_fit, Y_fit
+        )
     except Exception as exc:  # noqa: BLE001 - scored inf, reason in cv_results_
         out["fit_time"] = time.perf_counter() - t0
         out["error"] = f"fit: {type(exc).__name__}: {exc}"
@@ -208,6 +222,11 @@ class SimulationSearchCV(BaseEstimator):
         every processor.
     verbose : int, default=0
         Progress messages of joblib; 0 is silent.
+    random_state : int or None, default=None
+        Seed of the candidates that take a ``random_state`` (a parameter, or a
+        keyword of a factory): fold ``k``'s fits get ``random_state + k`` and the
+        refit ``random_state``, so the folds' networks differ as independent
+        fits would. None leaves the candidates' own.
 
     Attributes
     ----------
@@ -233,6 +252,12 @@ class SimulationSearchCV(BaseEstimator):
     physics_ : estimator or None
         The physics fitted on the whole records for the refit, where the winner
         needed it.
+    best_oof_runs_ : list of ndarray
+        The best row's out-of-fold free runs: for each fold, its simulated
+        samples of the held-out blocks after their first ``n_init``, flattened
+        and joined block after block (the samples its score is computed on).
+        The residuals of a model no fit of which saw them; ``None`` for the
+        stack.
     n_splits_ : int
         The folds used.
     n_splits_reason_ : str
@@ -331,6 +356,7 @@ class SimulationSearchCV(BaseEstimator):
         "refit": ["boolean"],
         "n_jobs": [Integral, None],
         "verbose": ["verbose"],
+        "random_state": [Interval(Integral, 0, 2**32 - 1 - 64, closed="both"), None],
     }
 
     def __init__(
@@ -345,6 +371,7 @@ class SimulationSearchCV(BaseEstimator):
         refit=True,
         n_jobs=None,
         verbose=0,
+        random_state=None,
     ):
         self.candidates = candidates
         self.physics = physics
@@ -355,6 +382,7 @@ class SimulationSearchCV(BaseEstimator):
         self.refit = refit
         self.n_jobs = n_jobs
         self.verbose = verbose
+        self.random_state = random_state
 
     # -- settings ----------------------------------------------------------------
     def _resolve_cv(self):
@@ -497,6 +525,7 @@ class SimulationSearchCV(BaseEstimator):
                 *pieces[k][0],
                 *pieces[k][1],
                 n_init,
+                None if self.random_state is None else self.random_state + k,
             )
             for _, est, settings, factory in rows
             for k in range(n_splits)
@@ -523,6 +552,11 @@ class SimulationSearchCV(BaseEstimator):
         self.best_candidate_ = best["candidate"]
         self.best_params_ = {k: v for k, v in best.items() if k != "candidate"}
         self.best_score_ = float(means[self.best_index_])
+        self.best_oof_runs_ = (
+            [r["runs"] for r in out[self.best_index_]]
+            if self.best_candidate_ != STACK_NAME
+            else None
+        )
         if self.refit:
             t0 = time.perf_counter()
             self.best_estimator_ = self._refit(rows, U, Y)
@@ -640,7 +674,9 @@ class SimulationSearchCV(BaseEstimator):
         fitted = []
         for i in chosen:
             name, est, settings, factory = rows[i]
-            model = _build(est, settings, factory, self.physics_).fit(U, Y)
+            model = _build(
+                est, settings, factory, self.physics_, self.random_state
+            ).fit(U, Y)
             fitted.append((_label(name, settings), model))
         if self.best_candidate_ != STACK_NAME:
             return fitted[0][1]

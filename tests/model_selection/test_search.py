@@ -521,3 +521,61 @@ def test_record_meta_estimators_are_left_out_of_the_common_checks():
     names = {name for name, _ in all_estimators()}
     assert not names & {"SimulationSearchCV", "StackedSimulation"}
     assert set(RECORD_META_ESTIMATORS) == {"SimulationSearchCV", "StackedSimulation"}
+
+
+class Seeded(Gain):
+    """A Gain that records the seed of each fit."""
+
+    SEEDS = []
+
+    def __init__(self, scale=1.0, random_state=None):
+        super().__init__(scale=scale)
+        self.random_state = random_state
+
+    def fit(self, U, Y):
+        Seeded.SEEDS.append(self.random_state)
+        return super().fit(U, Y)
+
+
+def seeded_correction(physics, damping=1.0, random_state=None):
+    Seeded.SEEDS.append(("factory", random_state))
+    return Correction(physics, damping=damping)
+
+
+def test_fold_k_fits_at_the_runs_seed_plus_k_and_the_refit_at_the_seed(records):
+    U, Y = records
+    Seeded.SEEDS.clear()
+    search = SimulationSearchCV(
+        [("seeded", Seeded()), ("corrected", seeded_correction)],
+        physics=ARX(),
+        n_init=N_INIT,
+        random_state=10,
+    ).fit(U, Y)
+    n = search.n_splits_
+    fits = [s for s in Seeded.SEEDS if not isinstance(s, tuple)]
+    made = [s[1] for s in Seeded.SEEDS if isinstance(s, tuple)]
+    assert fits[:n] == [10 + k for k in range(n)]
+    assert made[:n] == [10 + k for k in range(n)]
+    # The refit (of whichever won) is at the run's seed itself.
+    assert (fits[n:] or made[n:]) == [10]
+    # Without random_state the candidates keep their own.
+    Seeded.SEEDS.clear()
+    SimulationSearchCV([("seeded", Seeded(random_state=3))], n_init=N_INIT).fit(U, Y)
+    assert set(Seeded.SEEDS) == {3}
+
+
+def test_best_oof_runs_are_the_samples_its_score_is_computed_on(records):
+    U, Y = records
+    search = SimulationSearchCV(
+        [("arx", ARX(), {"n_lags": [1, 2]})], n_init=N_INIT
+    ).fit(U, Y)
+    splitter = RecordBlockSplit(search.n_splits_, n_init=N_INIT)
+    for k, (_, test) in enumerate(splitter.split(U, Y)):
+        _, Y_test = take_pieces(U, Y, test)
+        measured = np.concatenate([np.ravel(y)[N_INIT:] for y in Y_test])
+        runs = search.best_oof_runs_[k]
+        assert runs.shape == measured.shape
+        rmse = np.sqrt(np.mean((runs - measured) ** 2))
+        assert rmse == pytest.approx(
+            search.cv_results_[f"split{k}_test_score"][search.best_index_]
+        )

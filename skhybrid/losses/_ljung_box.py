@@ -46,6 +46,13 @@ def _fast_length(n):
 
 
 def _check_series(residuals, lags, xp):
+    dtype = residuals.dtype
+    # A tensor always holds numbers; a NumPy array may hold strings or objects.
+    if not is_torch(xp) and dtype.kind not in "biuf":
+        raise TypeError(
+            "residuals must hold real numbers (a float array); got "
+            f"dtype {dtype}. Convert them with np.asarray(residuals, dtype=float)."
+        )
     if residuals.ndim not in (1, 2):
         raise ValueError(
             "residuals must be 1-D (n_samples,) or 2-D (n_samples, n_outputs); "

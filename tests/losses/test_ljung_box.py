@@ -481,3 +481,12 @@ def test_ljung_box_scale_divides_each_outputs_norm(rng):
         ),
         objective_value(r[:, :1], "ljung_box", lags=5),
     )
+
+
+@pytest.mark.parametrize(
+    "residuals", [np.array(["a", "b", "c"] * 10), np.array([1 + 1j] * 30)]
+)
+def test_ljung_box_names_residuals_that_are_not_real_numbers(residuals):
+    # Strings raised numpy's internal UFuncTypeError, naming no parameter.
+    with pytest.raises(TypeError, match=r"residuals must hold real numbers.*dtype"):
+        ljung_box(residuals, lags=2)

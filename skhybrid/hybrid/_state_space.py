@@ -8,6 +8,7 @@ correction and physical parameters are trained jointly by the simulation error
 over sub-sequences of ``horizon`` steps.
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -685,12 +686,18 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self._start_physics(physics, "fit_simulation", U_list, Y_list)
 
         L = k + T
-        train, valid = [], []
+        train, valid, unused = [], [], []
         held = self._held_out_records(len(Y_list))
         for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
             if i in held:
                 # The whole record, simulated from its first n_init samples.
-                valid.append((y, u))
+                if len(y) > k:
+                    valid.append((y, u))
+                else:
+                    unused.append((i, len(y), f"n_init + 1 = {k + 1}"))
+                continue
+            if len(y) < L:
+                unused.append((i, len(y), f"n_init + horizon = {k} + {T} = {L}"))
                 continue
             n_valid = 0
             if self.validation_split == "tail":
@@ -704,7 +711,19 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         if not train:
             raise ValueError(
                 f"no record holds n_init + horizon = {k} + {T} = {L} samples in its "
-                "training part; lower n_init or horizon (or validation_fraction)."
+                "training part; lower n_init or horizon (or validation_fraction). "
+                f"Record lengths: {[len(y) for y in Y_list]}."
+            )
+        if unused:
+            warnings.warn(
+                f"{type(self).__name__}.fit_simulation uses none of "
+                + ", ".join(
+                    f"record {i} ({n} samples, fewer than {need})"
+                    for i, n, need in unused
+                )
+                + "; lower n_init or horizon, or leave such records out.",
+                UserWarning,
+                stacklevel=5,  # the caller of fit_simulation
             )
         Ytr = np.stack([a for a, _ in train])
         Utr = np.stack([b for _, b in train])

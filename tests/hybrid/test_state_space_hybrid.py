@@ -291,6 +291,28 @@ def test_simulate_needs_n_init_samples():
         model.simulate(u[0], y[0, :2])
 
 
+@pytest.mark.parametrize(
+    "kwargs", [{}, {"validation_split": "records", "validation_fraction": 0.34}]
+)
+def test_records_too_short_to_use_are_named(kwargs):
+    # A record shorter than n_init was dropped without a word (and, held out
+    # for validation, failed inside torch with a shape mismatch).
+    u, y = _records(n=3)
+    U, Y = [u[0], u[1], u[2][:2]], [y[0], y[1], y[2][:2]]
+    model = _model(warm_start_physics=False, **kwargs)
+    with pytest.warns(UserWarning, match=r"uses none of record 2 \(2 samples, fewer"):
+        model.fit_simulation(U, Y)
+    assert np.all(np.isfinite(model.simulate(u[0], y[0, :3])))
+
+
+def test_records_all_too_short_raise_with_their_lengths():
+    u, y = _records(n=2)
+    with pytest.raises(ValueError, match=r"n_init \+ horizon = 3 \+ 5 = 8.*\[6, 7\]"):
+        _model(warm_start_physics=False).fit_simulation(
+            [u[0, :6], u[1, :7]], [y[0, :6], y[1, :7]]
+        )
+
+
 def test_diverging_training_raises():
     u, y = _records()
     model = _model(lr=1e4, max_epochs=20, correction_scale=10.0, patience=20)

@@ -1,6 +1,6 @@
 """Rerun the measured benchmarks and compare with the recorded reference figures.
 
-The release checklist's check that every measured figure of docs/experiments.md
+The release checklist's check that every measured figure of docs/results.md
 follows from its documented command: for each benchmark it runs ``skhybrid run
 SYSTEM --data DIR --out RUNS/SYSTEM`` (seeds 0, 1, 2 in the one run, each a full
 selection, sealed before the test; a run folder that already holds a finished
@@ -32,13 +32,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-#: docs/experiments.md, "Reference results, sealed, after the state-space hybrid's fix"
-#: (the tanks: "... the tanks' pump"; the EMPS: "... the EMPS's continued fit,
-#: the tanks' converged fit"; the friction damper: "... with the Silverbox's
-#: hybrid trained longer"; the Silverbox: "... the Silverbox's input between
-#: samples"; the
-#: Wiener-Hammerstein circuit: "... block-structured physics"; the coupled
-#: drives: "... the family's hybrid on short records"):
+#: docs/results.md, the figures of record (each benchmark's latest sealed run;
+#: benchmarks/LOG.md holds every run and why it was made):
 #: system -> (chosen model, or the models chosen at the seeds, {split: (mean, min,
 #: max)}), official units; the figures are those of each seed's chosen model.
 REFERENCE = {

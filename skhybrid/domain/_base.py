@@ -9,7 +9,10 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.domain._identifiability import warn_if_unidentifiable
+from skhybrid.domain._identifiability import (
+    warn_if_underdetermined,
+    warn_if_unidentifiable,
+)
 from skhybrid.losses import OBJECTIVES, objective_residuals
 from skhybrid.preprocessing import step_width
 from skhybrid.simulation import SimulatorMixin
@@ -417,6 +420,9 @@ class DomainModel(
     def _least_squares(self, X, y, spec):
         if spec.n_free == 0:
             return spec.x0, None
+        warn_if_underdetermined(
+            self, int(np.size(y)), spec.n_free, remedy="hold some with fixed"
+        )
         xp = get_namespace(X)
         fun = self._residual_vector(X, y, spec, xp)
         jac = self.jac

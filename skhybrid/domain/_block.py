@@ -13,6 +13,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted
 
+from skhybrid.domain._identifiability import warn_if_underdetermined
 from skhybrid.domain._output_error import _LinearOutputError
 from skhybrid.simulation import (
     check_trajectories,
@@ -475,6 +476,14 @@ class WienerHammersteinModel(
                 f"order={self.order}."
             )
         best = refined[0]
+        a1, b1, a2, b2, coef, _ = best["_params"]
+        warn_if_underdetermined(
+            self,
+            sum(len(y_i) - transient for y_i in Y),
+            # The refinement's free vector (G2's largest coefficient is fixed).
+            len(a1) - 1 + b1.size + len(a2) - 1 + len(b2) - 1 + len(coef),
+            remedy="a lower order or fewer n_knots",
+        )
         if best["_stopped"] and self.max_nfev > 0:
             warnings.warn(
                 f"WienerHammersteinModel's refinement stopped at max_nfev="

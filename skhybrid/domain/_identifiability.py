@@ -1,8 +1,11 @@
 """Which parameter combinations the data leave undetermined: a check after every fit."""
 
+import os
+import sys
 import warnings
 
 import numpy as np
+import sklearn
 
 from skhybrid.exceptions import IdentifiabilityWarning
 
@@ -36,6 +39,59 @@ def warn_if_unidentifiable(estimator, jacobian, spec, theta, tol=1e-6):
             IdentifiabilityWarning,
             stacklevel=4,
         )
+
+
+def _user_stacklevel():
+    """``stacklevel`` of the first frame outside skhybrid and scikit-learn.
+
+    The fits reach the least squares through decorators and re-entrant
+    clones of varying depth; a fixed level would point into them.
+    """
+    internal = (
+        os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+        os.path.dirname(os.path.abspath(sklearn.__file__)),
+    )
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(internal):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def warn_if_underdetermined(estimator, n_residuals, n_free, *, remedy=""):
+    """Warn where a fit has no more residuals than free parameters.
+
+    Such a fit can pass through every sample (an in-sample error near zero)
+    while its parameters are set by the noise, and simulate far off elsewhere;
+    nothing in the result says so.
+
+    Parameters
+    ----------
+    estimator : object
+        The model being fitted (named in the warning).
+    n_residuals : int
+        Residuals the fit minimises (samples times outputs).
+    n_free : int
+        Free parameters it fits.
+    remedy : str, default=""
+        What lowers this model's number of parameters, appended to the advice.
+
+    Returns
+    -------
+    underdetermined : bool
+        Whether it warned.
+    """
+    if n_free == 0 or n_residuals > n_free:
+        return False
+    warnings.warn(
+        f"{type(estimator).__name__} fits {n_free} free parameters to only "
+        f"{n_residuals} residuals, which cannot determine them: the fit can "
+        "interpolate the data (an in-sample error near zero) and simulate far off "
+        "elsewhere. Fit on more samples, or fit fewer parameters"
+        f"{' (' + remedy + ')' if remedy else ''}.",
+        IdentifiabilityWarning,
+        stacklevel=_user_stacklevel(),
+    )
+    return True
 
 
 def _free_labels(spec):

@@ -5,8 +5,8 @@ import warnings
 import numpy as np
 import pytest
 
-from skhybrid.domain import StateSpaceModel
-from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.domain import ParametricModel, StateSpaceModel, WienerHammersteinModel
+from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 
 
 def cubic(x, u, *, xp, a, b):
@@ -66,3 +66,40 @@ def test_the_penalty_for_a_diverged_run_leaves_a_stable_fit_alone(record):
         n_init=5,
     ).fit_simulation(u, y)
     assert model.params_["a"] == pytest.approx(0.9, abs=1e-6)
+
+
+def _wiener_hammerstein_record(n=200):
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((n, 1))
+    x = np.convolve(u[:, 0], [1.0, 0.5, 0.2])[:n]
+    return u, np.tanh(x) + 0.01 * rng.standard_normal(n)
+
+
+def test_an_underdetermined_wiener_hammerstein_fit_warns():
+    # On 10 samples it interpolated the data (RMSE 6e-16) without a word.
+    u, y = _wiener_hammerstein_record()
+    model = WienerHammersteinModel(order=3, n_knots=8)
+    with pytest.warns(
+        IdentifiabilityWarning,
+        match=r"WienerHammersteinModel fits \d+ free parameters to only \d+ "
+        r"residuals.*a lower order or fewer n_knots",
+    ) as record:
+        model.fit(u[:10], y[:10])
+    assert record[0].filename == __file__  # points at the user's call
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        WienerHammersteinModel(order=2, n_knots=4, n_starts=1).fit(u, y)
+
+
+def test_an_underdetermined_least_squares_fit_warns():
+    def line(X, *, a, b, xp=np):
+        return a * X[:, 0] + b
+
+    X = np.array([[0.0], [1.0]])
+    with pytest.warns(
+        IdentifiabilityWarning, match="ParametricModel fits 2 free parameters to only 2"
+    ):
+        ParametricModel(line, {"a": 1.0, "b": 0.0}).fit(X, [1.0, 3.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        ParametricModel(line, {"a": 1.0, "b": 0.0}, fixed=("b",)).fit(X, [1.0, 3.0])

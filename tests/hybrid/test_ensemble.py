@@ -340,3 +340,54 @@ def test_horizon_rollout_equals_free_run_simulation():
     perm = np.random.default_rng(0).permutation(len(X))
     with pytest.raises(ValueError, match="horizon=4: no 4 consecutive rows"):
         model.set_params(objective="mse").fit(X[perm], y[perm])
+
+
+class _CtrlC(Callback):
+    """Raise KeyboardInterrupt (what Ctrl-C raises) at a batch of an epoch."""
+
+    def __init__(self, epoch):
+        self.epoch = epoch
+
+    def on_batch_end(self, net, **kwargs):
+        if len(net.history) >= self.epoch:
+            raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize(
+    "kwargs, epoch",
+    [
+        ({}, 3),
+        # During the fine-tuning phase that follows the MSE pretraining.
+        (
+            {
+                "objective": "mse+ljung_box",
+                "mse_pretraining": True,
+                "patience": 3,
+                "ljung_box_lags": 5,
+            },
+            -2,
+        ),
+    ],
+    ids=["mid-batch", "fine-tuning"],
+)
+def test_ctrl_c_during_a_refit_marks_the_model_and_warns(kwargs, epoch):
+    def line(X, *, a, xp=np):
+        return a * X[:, 1]
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (200, 2))
+    y = np.sin(2 * X[:, 0]) + X[:, 1] + 0.1 * rng.standard_normal(200)
+    model = HybridEnsembleRegressor(
+        ParametricModel(line, {"a": 0.5}),
+        DenseRegressor((8,)),
+        max_epochs=20,
+        random_state=0,
+        **kwargs,
+    ).fit(X, y)
+    assert model.interrupted_ is False
+    epoch = epoch if epoch > 0 else model.n_epochs_ + epoch
+    with pytest.warns(UserWarning, match="interrupted"):
+        model.set_params(callbacks=[_CtrlC(epoch)]).fit(X, y)
+    assert model.interrupted_ is True
+    assert model.n_epochs_ == epoch - 1  # cut during the epoch-th epoch
+    assert np.all(np.isfinite(model.predict(X)))

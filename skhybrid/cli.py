@@ -369,13 +369,19 @@ def _load_spec(text):
         raise _SpecError(
             f"--system {text}: cannot import {module_name}: {exc}"
         ) from None
+    except (TypeError, ValueError) as exc:
+        # A SystemSpec built at import is checked then: its one-line message.
+        raise _SpecError(f"--system {text}: {exc}") from None
     obj = module
     for part in attr.split("."):
         if not hasattr(obj, part):
             raise _SpecError(f"--system {text}: {module_name} has no {attr}")
         obj = getattr(obj, part)
     if callable(obj) and not isinstance(obj, SystemSpec):
-        obj = obj()
+        try:
+            obj = obj()
+        except (TypeError, ValueError) as exc:
+            raise _SpecError(f"--system {text}: {exc}") from None
     if not isinstance(obj, SystemSpec):
         raise _SpecError(
             f"--system {text} is a {type(obj).__name__}, not a "
@@ -528,7 +534,7 @@ class _Plan:
 
             try:
                 self.system = MeasuredSystem.from_spec(_load_spec(args.spec))
-            except TypeError as exc:
+            except (TypeError, ValueError) as exc:
                 raise _SpecError(f"--system {args.spec}: {exc}") from None
         elif self.measured:
             self.system = _system(args.system)

@@ -9,6 +9,7 @@ records.
 """
 
 import numbers
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,9 +60,22 @@ def _frame_record(frame, inputs, outputs, where):
             f"{where} has no column(s) {missing}; its columns are "
             f"{list(frame.columns)} (inputs={list(inputs)}, outputs={list(outputs)})."
         )
-    u = frame[list(inputs)].to_numpy(dtype=float)
-    y = frame[list(outputs)].to_numpy(dtype=float)
-    return u, y
+    return (
+        _numbers(frame[list(inputs)], where, "inputs"),
+        _numbers(frame[list(outputs)], where, "outputs"),
+    )
+
+
+def _numbers(values, where, what):
+    """``values`` as a float array, or a ValueError naming the record."""
+    try:
+        if hasattr(values, "to_numpy"):
+            return values.to_numpy(dtype=float)
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"{where} must hold numbers; its {what} do not ({exc})."
+        ) from None
 
 
 def _frame_dt(frame, where):
@@ -130,7 +144,8 @@ def as_records(records, *, inputs=None, outputs=None, name="records"):
             u, y = _frame_record(record, inputs, outputs, where)
             dts.append(_frame_dt(record, where))
         elif isinstance(record, (tuple, list)) and len(record) == 2:
-            u, y = (np.asarray(a, dtype=float) for a in record)
+            u = _numbers(record[0], where, "inputs")
+            y = _numbers(record[1], where, "outputs")
             dts.append(None)
         else:
             raise TypeError(
@@ -177,6 +192,80 @@ def records_digest(U, Y):
         h.update(str(a.shape).encode())
         h.update(a.tobytes())
     return h.hexdigest()
+
+
+def _positive_real(value):
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, bool)
+        and bool(np.isfinite(value))
+        and value > 0
+    )
+
+
+def _check_published(published):
+    """Raise unless ``published`` is ``{test: {label: (rmse, source)}}``."""
+    problem = not isinstance(published, dict)
+    if not problem:
+        for figures in published.values():
+            if not isinstance(figures, dict):
+                problem = True
+                break
+            for pair in figures.values():
+                if not (
+                    isinstance(pair, (tuple, list))
+                    and len(pair) == 2
+                    and (
+                        pair[0] is None
+                        or (
+                            isinstance(pair[0], numbers.Real)
+                            and not isinstance(pair[0], bool)
+                        )
+                    )
+                    and isinstance(pair[1], str)
+                ):
+                    problem = True
+    if problem:
+        raise TypeError(
+            "published must be a dict {test name: {label: (rmse, source)}}, for "
+            "example {'test': {'linear model': (0.59, 'Smith et al. 2020')}}; got "
+            f"published={published!r}."
+        )
+
+
+#: The state-space hybrid's parameters the family sets itself, per run.
+_HYBRID_SET_BY_RUN = ("physics", "n_init", "warm_start_physics", "random_state")
+
+
+def _check_hybrids(hybrids):
+    """Raise unless every candidate's settings are the hybrid's parameters."""
+    import inspect
+
+    from skhybrid.hybrid import StateSpaceHybridRegressor
+
+    allowed = sorted(
+        set(inspect.signature(StateSpaceHybridRegressor.__init__).parameters)
+        - {"self", *_HYBRID_SET_BY_RUN}
+    )
+    for label, settings in hybrids.items():
+        if not isinstance(settings, dict):
+            raise TypeError(
+                f"hybrids[{label!r}] must be a dict of StateSpaceHybridRegressor "
+                f"parameters; got {settings!r}."
+            )
+        unknown = sorted(set(settings) - set(allowed), key=str)
+        if unknown:
+            hint = ""
+            import difflib
+
+            close = difflib.get_close_matches(str(unknown[0]), allowed, n=1)
+            if close:
+                hint = f" (did you mean {close[0]!r}?)"
+            raise ValueError(
+                f"hybrids[{label!r}] has settings {unknown} that are not "
+                f"StateSpaceHybridRegressor parameters{hint}; expected some of "
+                f"{allowed} ({', '.join(_HYBRID_SET_BY_RUN)} are set by the run)."
+            )
 
 
 def _check_takes_starts(physics):
@@ -342,12 +431,52 @@ class SystemSpec:
             raise TypeError(f"n_init must be an int >= 1; got n_init={n_init!r}.")
         if n_init < 1:
             raise ValueError(f"n_init must be an int >= 1; got n_init={n_init!r}.")
-        if self.dt is not None and not (
-            isinstance(self.dt, numbers.Real) and np.isfinite(self.dt) and self.dt > 0
+        if self.dt is not None and not _positive_real(self.dt):
+            raise ValueError(
+                f"dt must be a positive number; got dt={self.dt!r} (seconds, or "
+                "None to read it from the records' time index)."
+            )
+        if not _positive_real(self.scale):
+            raise ValueError(
+                f"scale must be positive; got scale={self.scale!r} (a finite number)."
+            )
+        for key in ("title", "unit", "notes"):
+            if not isinstance(getattr(self, key), str):
+                raise TypeError(
+                    f"{key} must be a str; got {key}={getattr(self, key)!r}."
+                )
+        for key in ("inputs", "outputs"):
+            columns = getattr(self, key)
+            if columns is not None and (
+                isinstance(columns, str)
+                or not isinstance(columns, (list, tuple))
+                or not columns
+            ):
+                raise TypeError(
+                    f"{key} must be a non-empty list of column names or None; got "
+                    f"{key}={columns!r}."
+                )
+        _check_published(self.published)
+        if self.physics_inputs is not None and not callable(self.physics_inputs):
+            raise TypeError(
+                "physics_inputs must be a callable mapping a record's inputs to the "
+                f"physics' (or None); got physics_inputs={self.physics_inputs!r}."
+            )
+        hybrid_records = self.hybrid_records
+        if (
+            isinstance(hybrid_records, bool)
+            or not isinstance(hybrid_records, numbers.Integral)
+            or hybrid_records < 1
         ):
-            raise ValueError(f"dt must be a positive number; got dt={self.dt!r}.")
-        if not (isinstance(self.scale, numbers.Real) and self.scale > 0):
-            raise ValueError(f"scale must be positive; got scale={self.scale!r}.")
+            raise ValueError(
+                "hybrid_records must be an int >= 1; got "
+                f"hybrid_records={hybrid_records!r}."
+            )
+        if not isinstance(self.score_from_estimation_start, (bool, np.bool_)):
+            raise TypeError(
+                "score_from_estimation_start must be a bool; got "
+                f"score_from_estimation_start={self.score_from_estimation_start!r}."
+            )
         physics = self.physics
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         if not is_factory and not (
@@ -380,20 +509,33 @@ class SystemSpec:
                 "starts_nfev must be an int >= 1; got "
                 f"starts_nfev={self.starts_nfev!r}."
             )
-        if self.segments != "auto":
-            for s in self.segments:
-                if s is not None and (
+        if not (isinstance(self.segments, str) and self.segments == "auto"):
+            segments = self.segments
+            if isinstance(segments, (str, dict)) or not isinstance(segments, Iterable):
+                segments = [0]  # refused below
+            segments = list(segments)
+            if not segments or any(
+                s is not None
+                and (
                     isinstance(s, bool) or not isinstance(s, numbers.Integral) or s < 1
-                ):
-                    raise ValueError(
-                        "segments must be 'auto' or a tuple of ints >= 1 (or None); "
-                        f"got segments={self.segments!r}."
-                    )
-        if not (self.hybrids in ("auto", None) or isinstance(self.hybrids, dict)):
+                )
+                for s in segments
+            ):
+                raise ValueError(
+                    "segments must be 'auto' or a tuple of ints >= 1 (or None); "
+                    f"got segments={self.segments!r}."
+                )
+        if not (
+            (isinstance(self.hybrids, str) and self.hybrids == "auto")
+            or self.hybrids is None
+            or isinstance(self.hybrids, dict)
+        ):
             raise TypeError(
                 "hybrids must be 'auto', None or a dict of label to settings; "
                 f"got hybrids={self.hybrids!r}."
             )
+        if isinstance(self.hybrids, dict):
+            _check_hybrids(self.hybrids)
         if (
             isinstance(self.hybrids, dict)
             and self.hybrids
@@ -412,6 +554,10 @@ class SystemSpec:
                 "tests must be a dict of name to record, a callable returning it, "
                 f"or None; got {type(self.tests).__name__}."
             )
+        if not callable(self.records):
+            # Records given as data are read now: a bad one is refused when the
+            # spec is built, naming it (a callable's are read when the run starts).
+            self.estimation_records()
 
     # -- records ----------------------------------------------------------------
     def estimation_records(self):
@@ -426,7 +572,8 @@ class SystemSpec:
         ------
         ValueError
             A record too short for its initialisation window and a validation
-            tail, or no sample period (``dt``).
+            tail, no sample period (``dt``), or a test record given as data
+            that does not fit them (:meth:`test_records`).
         """
         records = self.records() if callable(self.records) else self.records
         U, Y, dts = as_records(
@@ -441,6 +588,10 @@ class SystemSpec:
                 f"{8 * self.n_init} samples (a validation tail of 25 % holds "
                 f"n_init and more); the shortest holds {shortest}."
             )
+        if self.tests is not None and not callable(self.tests):
+            # Test records given as data are checked with the estimation records,
+            # before any fit (a callable's are read once the selection is sealed).
+            self.test_records(U, Y)
         return U, Y
 
     def sample_period(self):
@@ -472,15 +623,38 @@ class SystemSpec:
             raise ValueError(
                 "dt is None and the records carry no time index: give dt=..."
             )
-        return float(np.mean(read))
+        if np.ptp(read) > 1e-6 * np.mean(read):
+            raise ValueError(
+                "dt is None and the records' time indexes give different sample "
+                f"periods ({', '.join(f'{d:.6g}' for d in read)} s); resample them "
+                "to one period, or give dt=... and records sampled at it."
+            )
+        return float(read[0])
 
-    def test_records(self):
-        """The test records, ``{name: (u, y)}`` (read now, never before sealing).
+    def test_records(self, U=None, Y=None):
+        """The test records, ``{name: (u, y)}``, checked (a callable's read now).
+
+        Test records given as data are checked when the spec is built; a
+        callable's are read only once the selection is sealed, and checked then,
+        before any model is simulated on them.
+
+        Parameters
+        ----------
+        U, Y : list of ndarray or None, default=None
+            The estimation records: each test record must have as many input
+            and output columns.
 
         Returns
         -------
         tests : dict of str to tuple of ndarray
             ``(u, y)`` of each test record, 2-D; empty without tests.
+
+        Raises
+        ------
+        ValueError
+            A test record that is not finite numbers, holds no more than
+            ``n_init`` samples, or whose columns differ from the estimation
+            records'; the message names it.
         """
         tests = self.tests() if callable(self.tests) else self.tests
         if tests is None:
@@ -491,18 +665,26 @@ class SystemSpec:
             )
         out = {}
         for key, record in tests.items():
-            U, Y, _ = as_records(
-                [record],
-                inputs=self.inputs,
-                outputs=self.outputs,
-                name=f"tests[{key!r}]",
-            )
-            if len(U[0]) <= self.n_init:
+            where = f"tests[{key!r}]"
+            u, y = as_records(
+                [record], inputs=self.inputs, outputs=self.outputs, name=where
+            )[0:2]
+            u, y = u[0], y[0]
+            if len(u) <= self.n_init:
                 raise ValueError(
-                    f"tests[{key!r}] holds {len(U[0])} samples, not more than "
+                    f"{where} holds {len(u)} samples, not more than "
                     f"n_init={self.n_init}."
                 )
-            out[str(key)] = (U[0], Y[0])
+            if U is not None and (
+                u.shape[1] != U[0].shape[1] or y.shape[1] != Y[0].shape[1]
+            ):
+                raise ValueError(
+                    f"{where} has inputs of shape {u.shape} and outputs of shape "
+                    f"{y.shape}; the estimation records have {U[0].shape[1]} input "
+                    f"and {Y[0].shape[1]} output column(s) (records[0]: "
+                    f"{U[0].shape} and {Y[0].shape})."
+                )
+            out[str(key)] = (u, y)
         return out
 
     # -- the candidate family ---------------------------------------------------

@@ -8,25 +8,32 @@ history (one-step-ahead error, :meth:`StateSpaceModel.fit`) or on whole records 
 the free-run simulation error (:meth:`StateSpaceModel.fit_simulation`).
 """
 
-import copy
-import inspect
 from numbers import Integral, Real
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.domain._base import DomainModel, _central_differences, _ParameterSpec
-from skhybrid.domain._continuation import continued_start
-from skhybrid.domain._starts import short_fit_start
-from skhybrid.exceptions import SimulationDivergedError
-from skhybrid.losses import objective_residuals
+from skhybrid.domain._base import DomainModel, _ParameterSpec
+
+# The model's parts live in their own modules (fit strategies, initial
+# states, integrators); their module-level helpers are re-exported here, where
+# they were defined before the split.
+from skhybrid.domain._state_space_fit import (  # noqa: F401 (re-exported)
+    _DIVERGED_RESIDUAL,
+    _central_differences_batch,
+    _penalised,
+    _SimulationFitMixin,
+)
+from skhybrid.domain._state_space_initial import (  # noqa: F401 (re-exported)
+    _groups,
+    _InitialStateMixin,
+)
+from skhybrid.domain._state_space_integrators import _IntegratorMixin
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import (
     check_finite_runs,
     check_trajectories,
-    fit_initial_states,
     pack_trajectories,
     stack_trajectories,
 )
@@ -38,31 +45,13 @@ from skhybrid.utils._sklearn_compat import (
     _fit_context,
     validate_data,
 )
-from skhybrid.utils._transaction import transactional
 
 __all__ = ["StateSpaceModel"]
 
-# Residual given to least_squares where a simulation became non-finite or ran
-# off (beyond this many times the largest measured output, at least 1).
-_DIVERGED_RESIDUAL = 1e6
 
-
-def _penalised(r, Y):
-    """``r`` with every diverged residual set to the penalty, and the penalty.
-
-    A trial step into an unstable region makes the free run overflow: its
-    residuals are inf or NaN, or finite but so large that their finite
-    differences overflow, and least_squares then stops inside scipy with
-    "array must not contain infs or NaNs". A bounded penalty there lets it
-    reject the step and shrink its region instead.
-    """
-    bound = _DIVERGED_RESIDUAL * max(1.0, float(np.max(np.abs(Y), initial=0.0)))
-    with np.errstate(invalid="ignore"):
-        diverged = ~(np.abs(r) <= bound)
-    return np.where(diverged, bound, r), bound
-
-
-class StateSpaceModel(DomainModel):
+class StateSpaceModel(
+    _SimulationFitMixin, _InitialStateMixin, _IntegratorMixin, DomainModel
+):
     """A state-space physics model with latent states, fitted by least squares.
 
     Write the state equations once, ``rhs(x, u, *, xp, **params)``, against the
@@ -526,194 +515,6 @@ default=None
         n_states = len(self.state_names)
         return n_states if observed is None else n_states - len(observed)
 
-    # -- the physics ---------------------------------------------------------------
-    @staticmethod
-    def _takes_xp(func):
-        try:
-            signature = inspect.signature(func)
-        except (TypeError, ValueError):
-            return True
-        return "xp" in signature.parameters or any(
-            p.kind is inspect.Parameter.VAR_KEYWORD
-            for p in signature.parameters.values()
-        )
-
-    def _rhs_fn(self, params, xp):
-        """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""
-        rhs = self.rhs
-        kwargs = dict(params, xp=xp) if self._takes_xp(rhs) else dict(params)
-
-        def f(x, u):
-            out = rhs(x, u, **kwargs)
-            shape = tuple(int(d) for d in getattr(out, "shape", ()))
-            if shape != tuple(x.shape):
-                name = getattr(rhs, "__name__", repr(rhs))
-                raise ValueError(
-                    f"rhs {name} returned shape {shape} for a state of shape "
-                    f"{tuple(x.shape)}; it must return one value per state and "
-                    "sample, for example xp.stack([...], axis=1)."
-                )
-            return out
-
-        return f
-
-    def _output_fn(self, params, observed, xp):
-        """``h(x)``: the observed states or the user's ``output``."""
-        if observed is not None:
-            return lambda x: x[:, observed]
-        output = self.output
-        kwargs = dict(params, xp=xp) if self._takes_xp(output) else dict(params)
-
-        def h(x):
-            out = output(x, **kwargs)
-            return out[:, None] if out.ndim == 1 else out
-
-        return h
-
-    def _step(self, x, u, f):
-        """State one sample period after ``x`` under the inputs ``u``.
-
-        ``u`` is held over the period, or, with ``input_points > 1``, read at
-        each stage's time (:meth:`_input_at`).
-        """
-        if self.time == "discrete":
-            return f(x, u)
-        dt = float(self.dt)
-        at = self._input_at(u)
-        if self.method == "solve_ivp":
-            return self._step_ivp(x, at, f, dt)
-        n = self.n_substeps
-        h = dt / n
-        for s in range(n):
-            k1 = f(x, at(s / n))
-            if self.method == "euler":
-                x = x + h * k1
-                continue
-            middle = at((s + 0.5) / n)
-            k2 = f(x + 0.5 * h * k1, middle)
-            k3 = f(x + 0.5 * h * k2, middle)
-            k4 = f(x + h * k3, at((s + 1) / n))
-            x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        return x
-
-    def _input_at(self, u):
-        """``at(tau)``: the inputs at the fraction ``tau`` of the sample period.
-
-        With ``input_points=1`` the held ``u`` itself; otherwise each input's
-        points (columns ``j * k + i``, :func:`band_limited_inputs`' layout)
-        interpolated linearly at ``tau``.
-        """
-        k = int(self.input_points)
-        if k == 1:
-            return lambda tau: u
-        width = u.shape[1]
-        if width % k:
-            raise ValueError(
-                f"input_points={k} needs inputs of a multiple of {k} columns (each "
-                f"input at {k} times a sample, as band_limited_inputs(u, "
-                f"n_points={k}) makes them); got {width} column(s)."
-            )
-
-        def at(tau):
-            position = tau * (k - 1)
-            i = min(int(position), k - 2)
-            w = position - i
-            if w == 0.0:
-                return u[:, i::k]
-            return (1.0 - w) * u[:, i::k] + w * u[:, i + 1 :: k]
-
-        return at
-
-    def _step_ivp(self, x, at, f, dt):
-        x = np.asarray(x, dtype=float)
-        if not np.all(np.isfinite(x)):
-            return np.full_like(x, np.nan)
-        shape = x.shape
-        options = {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12}
-        options.update(self.solver_options or {})
-
-        def fun(t, z):
-            return np.asarray(f(z.reshape(shape), at(t / dt)), dtype=float).ravel()
-
-        sol = solve_ivp(fun, (0.0, dt), x.ravel(), **options)
-        if not sol.success:
-            return np.full_like(x, np.nan)
-        return sol.y[:, -1].reshape(shape)
-
-    def _run(self, x0, U, params, observed, xp, n_times=None):
-        """Outputs ``(n, n_times, n_outputs)`` from states ``x0`` under ``U``.
-
-        ``U`` is ``(n, T, n_inputs)``; the output at time ``t`` is read before the
-        input ``U[:, t]`` acts. Also returns the final state (after ``n_times``
-        samples, ``n_times <= T + 1``). NumPy runs use ``numpy`` itself as ``xp``.
-        """
-        if not is_torch(xp):
-            xp = np
-        f = self._rhs_fn(params, xp)
-        h = self._output_fn(params, observed, xp)
-        n_times = U.shape[1] if n_times is None else n_times
-        x, outs = x0, []
-        for t in range(n_times):
-            outs.append(h(x))
-            if t < U.shape[1]:
-                x = self._step(x, U[:, t], f)
-        return xp.stack(outs, axis=1), x
-
-    def step(self, x, u, params=None, *, correction=None):
-        """Advance states by one sample period, in NumPy or torch.
-
-        Applies the discretised state equations (``time="discrete"``: ``rhs``
-        itself; ``"continuous"``: ``n_substeps`` Euler or RK4 steps over ``dt``
-        with ``u`` held) in the namespace of ``x``, so that with torch tensors
-        (the states and the parameter values) gradients reach both; the
-        state-space hybrid trains through it.
-
-        Parameters
-        ----------
-        x : ndarray or torch.Tensor of shape (n, n_states)
-            States at the current sample.
-        u : ndarray or torch.Tensor of shape (n, n_inputs)
-            Inputs held over the sample period.
-        params : dict or None, default=None
-            Parameter values (floats, arrays or 0-d tensors) by name; ``None``
-            uses the fitted ``params_``.
-        correction : callable or None, default=None
-            ``correction(x, u) -> (n, n_states)``, a term added to the state
-            equations: to ``dx/dt`` with ``time="continuous"`` (evaluated at
-            every stage of the integrator, so it is integrated with the
-            physics), to the next state with ``time="discrete"``. The seam a
-            hybrid uses to put a learned force inside the physics
-            (:class:`~skhybrid.hybrid.StateSpaceHybridRegressor` with
-            ``correction_form="rhs"``).
-
-        Returns
-        -------
-        x_next : ndarray or torch.Tensor of shape (n, n_states)
-            States one sample period later.
-        """
-        xp = get_namespace(x)
-        if is_torch(xp) and self.time == "continuous" and self.method == "solve_ivp":
-            raise ValueError(
-                "step on torch tensors needs method='rk4' or 'euler'; got "
-                f"method={self.method!r}."
-            )
-        if not is_torch(xp):
-            xp = np
-        if params is None:
-            check_is_fitted(self)
-            params = self.params_
-        f = self._rhs_fn(params, xp)
-        if correction is not None:
-            rhs = f
-            # The correction reads the sample's inputs as given (every point of
-            # them with input_points > 1), as the network was sized for them.
-            points = self.input_points > 1
-
-            def f(z, v):
-                return rhs(z, v) + correction(z, u if points else v)
-
-        return self._step(x, u, f)
-
     def observed_indices(self):
         """Indices of the measured states in ``state_names``, or None.
 
@@ -790,166 +591,9 @@ default=None
             params = self.params_ if observed is None else {}
         return self._output_fn(params, observed, xp)(x)
 
-    # -- initial states ------------------------------------------------------------
-    def _call_guess(self, func, Y, U, n_states):
-        guess = np.asarray(func(np.asarray(Y), np.asarray(U)), dtype=float)
-        if guess.shape != (Y.shape[0], n_states) or not np.all(np.isfinite(guess)):
-            name = getattr(func, "__name__", repr(func))
-            raise ValueError(
-                f"initial_state {name} returned shape {guess.shape} for "
-                f"{Y.shape[0]} window(s); it must return finite guesses of shape "
-                f"({Y.shape[0]}, {n_states})."
-            )
-        return guess
-
-    def _start(self, Y0, guess, observed, xp=np):
-        """States at the first sample: observed ones measured, the others guessed.
-
-        ``guess`` is one state ``(n_states,)`` or one per record ``(n, n_states)``.
-        """
-        n = Y0.shape[0]
-        guess = np.broadcast_to(guess, (n, len(self.state_names)))
-        if observed is None:
-            return np.array(guess)
-        columns = []
-        for j in range(len(self.state_names)):
-            if j in observed:
-                columns.append(Y0[:, observed.index(j)])
-            else:
-                column = guess[:, j]
-                if is_torch(xp):
-                    column = xp.asarray(column, dtype=Y0.dtype)
-                columns.append(column)
-        return xp.stack(columns, axis=1)
-
-    def _estimate_x0(self, Y, U, params, structure, estimate_observed=None):
-        """Least-squares initial states ``(n, n_states)`` of windows ``Y``, ``U``.
-
-        ``Y`` is ``(n, k, n_outputs)`` measured outputs and ``U`` ``(n, k,
-        n_inputs)`` inputs over each window; NumPy only. The free initial states
-        (the latent ones, all of them with an ``output`` function or where the
-        observed ones are estimated too) are fitted by
-        :func:`~skhybrid.simulation.fit_initial_states`, the package's one
-        initial-state solver, separately for every window; the perturbed
-        windows are simulated in one batch. ``estimate_observed`` overrides the
-        parameter of that name.
-        """
-        n_states, observed, guess = structure
-        if callable(guess):
-            guess = self._call_guess(guess, Y, U, n_states)
-        x0 = np.array(self._start(Y[:, 0], guess, observed), dtype=float)
-        if estimate_observed is None:
-            estimate_observed = self.estimate_observed
-        free = (
-            list(range(n_states))
-            if observed is None or estimate_observed
-            else [j for j in range(n_states) if j not in observed]
-        )
-        k = Y.shape[1]
-        if not free or (k < 2 and observed is not None):
-            return x0
-        n = Y.shape[0]
-        target = Y.reshape(n, -1)
-        # Parameters given one value per window (vectorized=True) follow their
-        # window into every batch of candidates.
-        per_row = {
-            name
-            for name, v in params.items()
-            if self.vectorized and np.ndim(v) == 1 and np.shape(v)[0] == n
-        }
-
-        def residuals(Z, index):
-            X0 = x0[index]
-            X0[:, free] = Z
-            rows = {
-                name: v[index] if name in per_row else v for name, v in params.items()
-            }
-            out, _ = self._run(X0, U[index], rows, observed, np, k)
-            return np.reshape(out, (len(index), -1)) - target[index]
-
-        z, _ = fit_initial_states(residuals, x0[:, free])
-        x0[:, free] = z
-        return x0
-
     def _check_fitted_structure(self):
         check_is_fitted(self)
         return self._structure()
-
-    def estimate_initial_state(self, inputs, outputs, *, params=None):
-        """Estimate the initial state of records from their first samples.
-
-        The observed states start at their measured values (and are fitted too
-        where ``estimate_observed=True``); the latent ones are fitted by least
-        squares so that the simulated outputs over the given samples match the
-        measured ones. One least-squares problem per record, solved by
-        :func:`~skhybrid.simulation.fit_initial_states` with every record's
-        simulations in one batch; a record's estimate never depends on the
-        other records given with it.
-
-        Parameters
-        ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs over (at least) the initialisation window of each record.
-        outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
-n_outputs) or list of 2-D arrays
-            Measured outputs of the initialisation window; ``n_init >= 1``
-            samples, all finite.
-        params : dict or None, default=None
-            Parameter values by name to simulate with; ``None`` uses the fitted
-            ``params_``. A state-space hybrid estimates its physics' states at
-            the physics' current parameters this way.
-
-        Returns
-        -------
-        states : ndarray of shape (n_records, n_states)
-            The estimated state at the first sample of each record.
-
-        Raises
-        ------
-        ValueError
-            Where a record has no measured sample, or a non-finite input or
-            output (naming the record and the time step).
-        """
-        structure = self._check_fitted_structure()
-        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
-        self._check_records(U_list, Y_list, "outputs")
-        return self._estimate_records(
-            U_list, Y_list, self.params_ if params is None else params, structure
-        )
-
-    def _estimate_records(self, U_list, Y_list, params, structure, **kwargs):
-        """Initial states of records of any lengths, each length one batch."""
-        out = np.empty((len(U_list), structure[0]))
-        for n_init, idx in _groups([len(y) for y in Y_list]):
-            U = np.stack([U_list[i][:n_init] for i in idx])
-            Y = np.stack([Y_list[i] for i in idx])
-            out[idx] = self._estimate_x0(Y, U, params, structure, **kwargs)
-        return out
-
-    def _check_records(self, U_list, Y_list, y_name):
-        if len(U_list) != len(Y_list):
-            raise ValueError(
-                f"inputs holds {len(U_list)} record(s) but {y_name} holds "
-                f"{len(Y_list)}; give one {y_name} array per inputs array."
-            )
-        # check_trajectories has checked that every record has these widths.
-        n_inputs, n_outputs = U_list[0].shape[1], Y_list[0].shape[1]
-        for name, expected, got in (
-            ("input", getattr(self, "n_inputs_", None), n_inputs),
-            ("output", getattr(self, "n_outputs_", None), n_outputs),
-        ):
-            if expected is not None and expected != got:
-                raise ValueError(
-                    f"the model was fitted with {expected} {name} column(s); got {got}."
-                )
-        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
-            if len(y) > len(u):
-                raise ValueError(
-                    f"{y_name}[{i}] holds {len(y)} time steps but inputs[{i}] only "
-                    f"{len(u)}; inputs cover the whole record."
-                )
-        return n_inputs, n_outputs
 
     # -- windowed fit and predict --------------------------------------------------
     def _layout(self, n_features):
@@ -1025,248 +669,6 @@ n_outputs) or list of 2-D arrays
             Predicted outputs, 1-D when ``y`` was 1-D in ``fit``.
         """
         return super().predict(X)
-
-    # -- simulation-error fit ------------------------------------------------------
-    def fit_simulation(self, inputs, outputs):
-        """Fit the free parameters on whole records by the free-run output error.
-
-        Each record's initial state is estimated from its first ``n_init``
-        samples (least squares through the physics at the current parameters),
-        then the model runs free over the whole record; ``least_squares``
-        minimises the simulated outputs' error over every sample. The fitted model
-        also predicts windows of ``n_steps`` steps (``predict``) and simulates
-        (``simulate``).
-
-        Parameters
-        ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of (n_times_i, n_inputs) arrays
-            Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
-            ``t + 1``. Zero columns for an autonomous system.
-        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
-n_outputs) or list of (n_times_i, n_outputs) arrays
-            Measured outputs of each record, aligned with ``inputs``.
-
-        Returns
-        -------
-        self : object
-            The fitted model.
-        """
-        start = self._fit_start("fit_simulation", inputs, outputs)
-        return self._fit_from(start, self._fit_simulation, inputs, outputs)
-
-    def _fit_start(self, method, *args):
-        """Where ``method``'s fit starts: after the ``starts``, then the continuation.
-
-        None where neither applies (the fit starts from ``params``).
-        """
-        self._validate_params()  # starts_nfev, before the short fits use it
-        chosen = short_fit_start(self, method, *args)
-        continued = continued_start(self, method, *args, base=chosen)
-        return continued if continued is not None else chosen
-
-    def _fit_from(self, start, fit, *args):
-        """``fit(*args)`` from ``start`` (after starts, continuation) or ``params``."""
-        if start is None:
-            return fit(*args)
-        self._chosen_start = start
-        try:
-            return fit(*args)
-        finally:
-            self.__dict__.pop("_chosen_start", None)
-
-    @transactional
-    @_fit_context(prefer_skip_nested_validation=True)
-    def _fit_simulation(self, inputs, outputs):
-        structure = self._structure()
-        U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
-        for attr in ("n_inputs_", "n_outputs_", "feature_names_in_"):
-            self.__dict__.pop(attr, None)
-        n_inputs, n_outputs = self._check_records(U_list, Y_list, "outputs")
-        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
-            if len(u) != len(y):
-                raise ValueError(
-                    f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
-                    f"{len(y)}; each record's inputs and outputs must be aligned."
-                )
-            if len(y) <= self.n_init:
-                raise ValueError(
-                    f"outputs[{i}] holds {len(y)} time steps, not more than "
-                    f"n_init={self.n_init}: nothing is left to simulate."
-                )
-        if self.jac == "autograd":
-            raise ValueError(
-                "fit_simulation differentiates by finite differences; got "
-                "jac='autograd'. Use jac='2-point' or '3-point'."
-            )
-        self._check_layout(n_outputs + n_inputs, n_outputs)
-        self.n_outputs_, self.n_inputs_ = n_outputs, n_inputs
-        self.n_features_in_ = self.n_steps * (n_outputs + n_inputs)
-        self._y_1d = False
-
-        lengths = np.array([len(u) for u in U_list])
-        T = int(lengths.max())
-        U = np.zeros((len(U_list), T, n_inputs))
-        Y = np.zeros((len(U_list), T, n_outputs))
-        for i, (u, y) in enumerate(zip(U_list, Y_list, strict=True)):
-            U[i, : len(u)], Y[i, : len(y)] = u, y
-        mask = np.arange(T)[None, :] < lengths[:, None]
-        y_flat = Y[mask]
-        init = self._initial_params()
-        if self.vectorized and any(np.ndim(v) for v in init.values()):
-            raise ValueError(
-                "vectorized=True broadcasts one value of each parameter per row; "
-                "every parameter must be a scalar, got array-valued "
-                f"{sorted(k for k, v in init.items() if np.ndim(v))}."
-            )
-        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
-        self._spec = spec
-        if self.objective != "mse" and self.ljung_box_lags >= y_flat.shape[0]:
-            raise ValueError(
-                f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
-                f"number of samples, {y_flat.shape[0]}."
-            )
-        self._records = (U, Y, mask, structure)
-        try:
-            theta, result = self._least_squares(U, y_flat, spec)
-            self.result_ = result
-            self.params_ = spec.to_dict(theta)
-            self.params_std_, self.params_cov_ = self._standard_errors(
-                U, y_flat, spec, theta
-            )
-            Y_sim, x0 = self._simulate_records(U, Y, self.params_, structure)
-        finally:
-            del self._records
-        self._check_fitted_run(Y_sim, Y, mask, lengths)
-        self.initial_states_ = x0
-        err = (Y_sim - Y)[mask]
-        self.rmse_ = float(np.sqrt(np.mean(err**2)))
-        self.noise_model_ = None
-        if self.noise_model is not None:
-            n_init = min(self.n_init, T)
-            residuals = np.concatenate(
-                [(Y[i] - Y_sim[i])[n_init : lengths[i]] for i in range(len(lengths))]
-            )
-            self.noise_model_ = copy.deepcopy(self.noise_model).fit(residuals)
-        return self
-
-    def _check_fitted_run(self, Y_sim, Y, mask, lengths):
-        """Raise where the fitted parameters' free run diverges on a record.
-
-        The penalty keeps least_squares going where a trial step diverges; a
-        fit that ends there has no model to give (its rmse_ would be inf), so
-        this is an error, named, rather than a warning.
-        """
-        with np.errstate(all="ignore"):
-            _, bound = _penalised(np.zeros(0), Y[mask])
-            run_off = ~(np.abs(Y_sim - Y) <= bound)
-        for i, n in enumerate(lengths):
-            bad = np.flatnonzero(np.any(run_off[i, :n], axis=1))
-            if bad.size:
-                params = {k: self.params_[k] for k in self._spec.free}
-                raise SimulationDivergedError(
-                    f"{type(self).__name__}.fit_simulation: the free run at the "
-                    f"fitted parameters {params} diverges (overflows or runs off "
-                    f"beyond {bound:.3g}) on record {i} from time step {bad[0]}, "
-                    f"so least_squares found no stable model from params="
-                    f"{self.params!r}. Start nearer a stable model (params, "
-                    "starts), bound the parameters to their stable range "
-                    "(bounds), or shorten the records."
-                )
-
-    def _simulate_records(self, U, Y, params, structure):
-        n_init = min(self.n_init, Y.shape[1])
-        x0 = self._estimate_x0(Y[:, :n_init], U[:, :n_init], params, structure)
-        with np.errstate(all="ignore"):
-            out, _ = self._run(x0, U, params, structure[1], np)
-        return out, x0
-
-    def _record_residuals(self, theta, spec):
-        U, Y, mask, structure = self._records
-        params = spec.to_dict(theta)
-        out, _ = self._simulate_records(U, Y, params, structure)
-        with np.errstate(all="ignore"):
-            r = (Y - out)[mask]
-        return _penalised(r, Y[mask])[0]
-
-    def _residual_vector(self, X, y, spec, xp):
-        if getattr(self, "_records", None) is None:
-            return super()._residual_vector(X, y, spec, xp)
-
-        def residuals(theta):
-            return objective_residuals(
-                self._record_residuals(np.asarray(theta, dtype=float), spec),
-                self.objective,
-                lags=self.ljung_box_lags,
-                ljung_box_weight=self.ljung_box_weight,
-            )
-
-        return residuals
-
-    def _raw_jacobian(self, X, y, spec, theta):
-        if getattr(self, "_records", None) is None:
-            J, base = super()._raw_jacobian(X, y, spec, theta)
-        else:
-
-            def raw(t):
-                return np.reshape(self._record_residuals(t, spec), -1)
-
-            base = raw(theta)
-            if self._batched_records():
-                J = _central_differences_batch(
-                    lambda sets: self._record_residuals_batch(sets, spec),
-                    theta,
-                    spec,
-                )
-            else:
-                J = _central_differences(raw, theta, spec, base.size)
-        return J, base
-
-    def _batched_records(self):
-        """Whether the records' Jacobians are simulated in one batch."""
-        return (
-            self.vectorized
-            and getattr(self, "_records", None) is not None
-            and self.jac == "2-point"
-        )
-
-    def _record_residuals_batch(self, thetas, spec):
-        """Residuals ``(n_sets, n_residuals)`` of parameter sets ``thetas``."""
-        U, Y, mask, structure = self._records
-        n_sets, n_rec = len(thetas), U.shape[0]
-        per_set = [spec.to_dict(t) for t in thetas]
-        params = {
-            name: (
-                np.repeat([p[name] for p in per_set], n_rec)
-                if name in spec.free
-                else per_set[0][name]
-            )
-            for name in per_set[0]
-        }
-        U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
-        out, _ = self._simulate_records(U_all, Y_all, params, structure)
-        with np.errstate(all="ignore"):
-            r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
-        r = r.reshape(n_sets, -1)
-        return _penalised(r, Y[mask])[0]
-
-    def _batched_jacobian(self, spec):
-        if not self._batched_records() or self.objective != "mse":
-            return None
-
-        def jac(theta):
-            theta = np.asarray(theta, dtype=float)
-            size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
-            step = np.sqrt(np.finfo(float).eps) * size
-            # Step backwards where the upper bound is too close.
-            step = np.where(theta + step > spec.upper, -step, step)
-            sets = np.vstack([theta, theta + np.diag(step)])
-            R = self._record_residuals_batch(sets, spec)
-            J = ((R[1:] - R[0]) / step[:, None]).T
-            # objective="mse" divides the residuals by the root of their number.
-            return J / np.sqrt(R.shape[1])
-
-        return jac
 
     # -- simulation ----------------------------------------------------------------
     def simulate_from_state(self, inputs, states):
@@ -1427,24 +829,3 @@ n_init, n_outputs) or list of 2-D arrays
                 pack_trajectories(std, lengths, form),
             )
         return pack_trajectories(paths, lengths, form)
-
-
-def _central_differences_batch(raw_batch, theta, spec):
-    """:func:`_central_differences` with every step simulated in one batch."""
-    size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
-    step = np.finfo(float).eps ** (1 / 3) * size
-    hi = np.maximum(np.minimum(step, spec.upper - theta), 0.0)
-    lo = np.maximum(np.minimum(step, theta - spec.lower), 0.0)
-    eye = np.eye(theta.size)
-    sets = np.vstack([theta + eye * hi[:, None], theta - eye * lo[:, None]])
-    R = raw_batch(sets)
-    width = hi + lo
-    J = (R[: theta.size] - R[theta.size :]) / np.where(width > 0, width, 1.0)[:, None]
-    J[width == 0] = 0.0
-    return J.T
-
-
-def _groups(sizes):
-    """``(size, indices)`` of the records sharing each size."""
-    sizes = np.asarray(sizes)
-    return [(int(s), np.flatnonzero(sizes == s)) for s in np.unique(sizes)]

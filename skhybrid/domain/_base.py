@@ -155,10 +155,14 @@ class DomainModel(
         self : object
             The fitted model.
         """
+        return self._fit_least_squares(X, y)
+
+    def _fit_least_squares(self, X, y, start=None):
+        """:meth:`fit`'s body, from ``start`` (see :meth:`_set_up`)."""
         X, y = validate_data(
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
-        y2, spec = self._set_up(X, y)
+        y2, spec = self._set_up(X, y, start=start)
         if self.objective != "mse" and self.ljung_box_lags >= X.shape[0]:
             raise ValueError(
                 f"ljung_box_lags={self.ljung_box_lags} must be smaller than the "
@@ -211,13 +215,20 @@ class DomainModel(
         self.params_cov_ = np.full((spec.n_free, spec.n_free), np.nan)
         return self
 
-    def _set_up(self, X, y):
-        """Layout check and parameter spec from validated ``X`` and ``y``."""
+    def _set_up(self, X, y, start=None):
+        """Layout check and parameter spec from validated ``X`` and ``y``.
+
+        ``start`` (a dict of every parameter's value, for models that take
+        one: a start chosen by earlier fits) replaces the initial values.
+        """
         y2 = y if y.ndim == 2 else y[:, None]
         self._y_1d = y.ndim == 1
         self.n_outputs_ = y2.shape[1]
         self._check_layout(step_width(X.shape[1], self.n_steps), self.n_outputs_)
-        init = self._initial_params(X, y2)
+        if start is None:
+            init = self._initial_params(X, y2)
+        else:
+            init = self._initial_params(X, y2, start=start)
         spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
         self._spec = spec
         return y2, spec

@@ -149,7 +149,7 @@ class ParametricModel(DomainModel):
         tags.regressor_tags.poor_score = True
         return tags
 
-    def _set_up(self, X, y):
+    def _set_up(self, X, y, start=None):
         # func reads whatever columns it likes, so a row of any width fits; the
         # window length shows only at simulate, where the wrong n_steps fails
         # late and points the wrong way. The rows tell it at fit: rows in time
@@ -164,7 +164,7 @@ class ParametricModel(DomainModel):
                 f"by one step. Set n_steps={inferred} (func still receives the "
                 f"whole row)."
             )
-        return super()._set_up(X, y)
+        return super()._set_up(X, y, start=start)
 
     def _takes_xp(self):
         try:

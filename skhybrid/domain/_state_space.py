@@ -452,15 +452,16 @@ default=None
                 )
         return n_states, observed, guess
 
-    def _initial_params(self, X=None, y=None):
+    def _initial_params(self, X=None, y=None, *, start=None):
+        """Checked initial values: ``start`` (a start chosen by earlier fits,
+        handed on as a value) or ``params``."""
         if not self.params:
             raise ValueError(
                 "params must name at least one parameter with its initial value; "
                 f"got params={self.params!r}."
             )
         out = {}
-        start = self.__dict__.get("_chosen_start") or self.params
-        for name, value in start.items():
+        for name, value in (self.params if start is None else start).items():
             try:
                 array = np.asarray(value, dtype=float)
             except (TypeError, ValueError):
@@ -633,9 +634,9 @@ default=None
         self : object
             The fitted model.
         """
-        return self._fit_from(self._fit_start("fit", X, y), self._fit_one_step, X, y)
+        return self._fit_one_step(X, y, start=self._fit_start("fit", X, y))
 
-    def _fit_one_step(self, X, y):
+    def _fit_one_step(self, X, y, start=None):
         self._structure()
         multi = self.__sklearn_tags__().target_tags.multi_output
         X, y = validate_data(
@@ -644,7 +645,9 @@ default=None
         # DomainModel.fit validates again, on the array, which would drop the
         # names validate_data just read from a DataFrame.
         names = getattr(self, "feature_names_in_", None)
-        super().fit(X, y)
+        # The body of DomainModel.fit, from the start handed in; this fit is
+        # already transactional and its parameters validated.
+        self._fit_least_squares(X, y, start=start)
         if names is not None:
             self.feature_names_in_ = names
         self.n_inputs_ = self._layout(X.shape[1]).n_inputs

@@ -69,7 +69,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             The fitted model.
         """
         start = self._fit_start("fit_simulation", inputs, outputs)
-        return self._fit_from(start, self._fit_simulation, inputs, outputs)
+        return self._fit_simulation(inputs, outputs, start=start)
 
     def _fit_start(self, method, *args):
         """Where ``method``'s fit starts: after the ``starts``, then the continuation.
@@ -81,19 +81,9 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         continued = continued_start(self, method, *args, base=chosen)
         return continued if continued is not None else chosen
 
-    def _fit_from(self, start, fit, *args):
-        """``fit(*args)`` from ``start`` (after starts, continuation) or ``params``."""
-        if start is None:
-            return fit(*args)
-        self._chosen_start = start
-        try:
-            return fit(*args)
-        finally:
-            self.__dict__.pop("_chosen_start", None)
-
     @transactional
     @_fit_context(prefer_skip_nested_validation=True)
-    def _fit_simulation(self, inputs, outputs):
+    def _fit_simulation(self, inputs, outputs, start=None):
         structure = self._structure()
         U_list, Y_list, _ = check_trajectories(inputs, outputs, initial_name="outputs")
         for attr in ("n_inputs_", "n_outputs_", "feature_names_in_"):
@@ -128,7 +118,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             U[i, : len(u)], Y[i, : len(y)] = u, y
         mask = np.arange(T)[None, :] < lengths[:, None]
         y_flat = Y[mask]
-        init = self._initial_params()
+        init = self._initial_params(start=start)
         if self.vectorized and any(np.ndim(v) for v in init.values()):
             raise ValueError(
                 "vectorized=True broadcasts one value of each parameter per row; "

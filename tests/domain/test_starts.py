@@ -183,3 +183,23 @@ def test_random_starts_refuses_params_that_are_not_finite_scalars(value):
     )
     with pytest.raises(ValueError, match=r"finite scalars; got params\['w'\]="):
         random_starts(model, 3)
+
+
+def test_the_chosen_start_is_handed_to_the_final_fit_as_a_value(record, monkeypatch):
+    # It was a hidden attribute (_chosen_start) read back via self.__dict__.
+    u, y = record
+    calls = []
+    original = StateSpaceModel._fit_simulation
+
+    def spy(self, inputs, outputs, start=None):
+        calls.append((start, sorted(vars(self))))
+        return original(self, inputs, outputs, start=start)
+
+    monkeypatch.setattr(StateSpaceModel, "_fit_simulation", spy)
+    fitted = _fit(_model(START, starts=STARTS), u, y)
+    # The short fits (clones, one per start) start from their own params.
+    assert [start for start, _ in calls[:-1]] == [None] * (len(STARTS) + 1)
+    start, attributes = calls[-1]
+    assert start["r"] == START["r"] and abs(start["w"] - 0.3) < 0.05
+    assert not [a for a in attributes if "start" in a and not a.startswith("starts")]
+    assert fitted.params_["w"] == pytest.approx(0.3, abs=1e-3)

@@ -15,14 +15,15 @@ import numpy as np
 from joblib import delayed
 
 from skhybrid.experiments._measured_zoo import (
+    N_SPLITS,
     MeasuredContext,
     _rmse,
-    _tail_split,
     fit_model,
     zoo,
 )
 from skhybrid.experiments._pickling import check_picklable
 from skhybrid.experiments._spec import SystemSpec
+from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
 __all__ = ["MeasuredResult", "MeasuredSettings", "MeasuredSystem"]
 
@@ -350,14 +351,14 @@ class MeasuredSystem:
             float(result.dt),
             result.settings.quick,
             result.settings.seed,
+            cache=result.cache_dir,
         )
         return delayed(fit_model)(name, model, ctx, deps, sink)
 
 
 def _fit_lengths(ctx):
-    """Lengths of the records' fitting parts (before their validation tails)."""
-    (U_fit, _), _ = _tail_split(ctx.U, ctx.Y)
-    return [len(u) for u in U_fit]
+    """Samples of each record's fitting part: three quarters, as each fold fits."""
+    return [int(0.75 * len(u)) for u in ctx.U]
 
 
 class MeasuredResult:
@@ -401,6 +402,8 @@ class MeasuredResult:
     stochastic : dict
         The chosen model's stochastic part once scored (see
         :mod:`skhybrid.experiments._stochastic`).
+    cache_dir : Path or None
+        Where the deterministic fits are kept (the run folder's cache).
     bands : dict of str to tuple of ndarray
         ``{split: (lower, upper)}``: the chosen model's simulation band on each
         test record.
@@ -426,6 +429,7 @@ class MeasuredResult:
         self.validation_runs = {}
         self.stochastic = {}
         self.bands = {}
+        self.cache_dir = None
         self.wall_time = float("nan")
 
     @property
@@ -437,14 +441,17 @@ class MeasuredResult:
         return list(self.tests)
 
     def validation_blocks(self):
-        """The validation tails of the estimation records, ``(U, Y)``.
+        """The held-out blocks of each fold every choice is made on.
 
         Returns
         -------
-        U, Y : list of ndarray
-            The last 25 % of each record, the blocks every choice is made on.
+        folds : list of tuple
+            For each fold, ``(U, Y)``: its held-out blocks of the estimation
+            records (:class:`~skhybrid.model_selection.RecordBlockSplit`).
         """
-        return _tail_split(*self.train)[1]
+        U, Y = self.train
+        splitter = RecordBlockSplit(N_SPLITS, n_init=self.n_init)
+        return [take_pieces(U, Y, test) for _, test in splitter.split(U, Y)]
 
     def test_rmse(self, split, model):
         """Free-run RMSE of ``model`` on the test record ``split`` (official units).

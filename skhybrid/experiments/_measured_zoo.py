@@ -1,41 +1,49 @@
 """The model zoo of measured systems and its one choose-refit rule.
 
-Every model is fitted on the estimation records only. Choices (window lengths,
-segment lengths, the horizon ``T`` and the architecture of the state-space
-hybrid, and the model to quote) are made on their validation tails, the last
-25 % of each record: a candidate is fitted on the first 75 % of every record and
-simulated in free run over each tail from the tail's first ``n_init`` measured
-outputs, as the official protocol simulates a test record; its score is the RMSE
-over every tail's simulated samples. The chosen candidate is then refitted on the
-whole records (except the state-space hybrid, quoted as fitted on the first
-75 %). Test records are simulated later, once the selection is sealed
-(:mod:`skhybrid.experiments._sealed`). :func:`choose_and_refit` is that rule, written
-once; each model of the zoo is a :class:`ZooModel`: its candidates, how one is
-fitted, and what it needs from models fitted before it.
+Every model is fitted on the estimation records only. Every choice (window
+lengths, segment lengths, the horizon ``T`` and the architecture of the
+state-space hybrid, and the model to quote) is made by blocked cross-validation
+of the records (:class:`~skhybrid.model_selection.SimulationSearchCV` over
+:class:`~skhybrid.model_selection.RecordBlockSplit`): each record is cut into
+four blocks; a candidate is fitted on the other blocks of every record (as
+separate pieces) and simulated in free run over each held-out block from its
+first ``n_init`` measured outputs, as the official protocol simulates a test
+record; its score is the mean over the folds of the RMSE over every held-out
+sample. The chosen candidate is refitted on the whole records. Test records are
+simulated later, once the selection is sealed
+(:mod:`skhybrid.experiments._sealed`). :func:`choose_and_refit` is that rule,
+written once; each model of the zoo is a :class:`ZooModel`: its candidates, how
+one is fitted, and what it needs from models fitted before it.
 """
 
+import hashlib
 import itertools
 import logging
+import pickle
 import time
 import warnings
 from dataclasses import dataclass, field, replace
 from functools import partial
+from pathlib import Path
 
+import joblib
 import numpy as np
-from sklearn.base import clone
-from sklearn.exceptions import ConvergenceWarning
+from sklearn.base import BaseEstimator, clone
+from sklearn.exceptions import ConvergenceWarning, FitFailedWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
+from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.experiments._fitting import (
     fit_segments,
     interrupts_raise,
     physical_params,
 )
 from skhybrid.experiments._progress import attach_epoch_logger
-from skhybrid.experiments._spec import pieces_per_record
+from skhybrid.experiments._spec import pieces_per_record, records_digest
+from skhybrid.experiments._store import _write_atomic
 from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
+from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
 
 __all__ = [
     "MeasuredContext",
@@ -48,9 +56,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-#: Share of the estimation record held out at its end for every choice.
-VALIDATION_FRACTION = 0.25
 
 #: What a failed free run raises (its score is then infinite, its test RMSE NaN).
 SIMULATION_ERRORS = (SimulationDivergedError, FloatingPointError, ValueError)
@@ -84,20 +89,6 @@ def pooled_rmse(Y, preds, n_init):
         ]
     )
     return float(np.sqrt(np.mean(errors**2)))
-
-
-def _tail_split(U, Y, fraction=VALIDATION_FRACTION):
-    """The first ``1 - fraction`` of every record, and the tails."""
-    cuts = [int(len(u) * (1 - fraction)) for u in U]
-    head = (
-        [u[:c] for u, c in zip(U, cuts, strict=True)],
-        [y[:c] for y, c in zip(Y, cuts, strict=True)],
-    )
-    tail = (
-        [u[c:] for u, c in zip(U, cuts, strict=True)],
-        [y[c:] for y, c in zip(Y, cuts, strict=True)],
-    )
-    return head, tail
 
 
 def _records(U, Y, n):
@@ -147,25 +138,6 @@ def simulate_records(model, U, Y, n_init):
     return preds, errors
 
 
-def _score(model, U, Y, n_init):
-    """Pooled free-run RMSE of records from their first ``n_init`` outputs.
-
-    Infinite where a free run failed or is not finite.
-
-    Returns
-    -------
-    score : float
-        The RMSE.
-    preds : list of ndarray
-        The free runs (NaN where one failed).
-    """
-    preds, errors = simulate_records(model, U, Y, n_init)
-    if any(errors):
-        return float("inf"), preds
-    value = pooled_rmse(Y, preds, n_init)
-    return (value if np.isfinite(value) else float("inf")), preds
-
-
 @dataclass(frozen=True)
 class MeasuredContext:
     """What every fit of a measured run reads: the system, its records, settings.
@@ -188,6 +160,8 @@ class MeasuredContext:
         Where networks report their epochs (progress), or None.
     label : str, default=""
         The model being fitted (names its epochs).
+    cache : str or Path or None, default=None
+        Where deterministic fits are kept (the run folder's cache), or None.
     """
 
     system: object
@@ -199,6 +173,7 @@ class MeasuredContext:
     seed: int
     sink: object = None
     label: str = ""
+    cache: object = None
 
 
 def _watch(estimator, ctx):
@@ -206,15 +181,6 @@ def _watch(estimator, ctx):
     if ctx.sink is not None and hasattr(estimator, "get_params"):
         attach_epoch_logger(estimator, ctx.sink, ctx.label)
     return estimator
-
-
-def _official_init(candidate, n_init):
-    return n_init
-
-
-def _window_init(candidate, n_init):
-    # A NARX needs its whole window measured before its free run starts.
-    return max(n_init, candidate)
 
 
 @dataclass(frozen=True)
@@ -226,36 +192,26 @@ class ZooModel:
     fit : callable
         ``fit(candidate, U, Y, ctx, deps, start)`` returns a fitted model with
         ``simulate(inputs, initial)``; ``U`` and ``Y`` are lists of records,
-        ``deps`` maps each required model's name to its fit on the same record
-        parts, ``start`` is the chosen candidate's fit on the first 75 % when
-        refitting (else None).
+        ``deps`` maps ``"physics"`` to the physics fitted on the same records
+        where the model requires it, ``start`` is None.
     candidates : callable
         ``candidates(ctx, records)`` returns ``{key: candidate}``; ``records``
         maps each required model's name to its fit record.
     requires : tuple of str, default=()
-        Models fitted before this one, whose fits it uses.
-    refit : bool, default=True
-        Refit the chosen candidate on the whole record; False quotes its fit on
-        the first 75 %.
-    keep_validation_fit : bool, default=False
-        Keep the chosen candidate's fit on the first 75 % too (models that
-        require this one are chosen with it).
-    score_init : callable, default=the official n_init
-        ``score_init(candidate, n_init)``: samples that start the free run on the
-        validation tail.
-    fit_errors : tuple of exception types, default=()
-        Errors of a candidate's fit that score it as infinitely bad.
+        Models chosen before this one, whose choices (or physics) it uses.
+    deterministic : bool, default=False
+        No fit depends on the seed: a fit is computed once per records and kept
+        in the run's cache (shared by every seed and by the models built on it).
     choice : str, default="chosen"
         Name of the chosen candidate in the fit record's ``selection``.
+    notes : dict, default={}
+        What the report says of the model's candidates.
     """
 
     fit: object
     candidates: object
     requires: tuple = ()
-    refit: bool = True
-    keep_validation_fit: bool = False
-    score_init: object = _official_init
-    fit_errors: tuple = ()
+    deterministic: bool = False
     choice: str = "chosen"
     notes: dict = field(default_factory=dict)
 
@@ -309,16 +265,10 @@ def _model_inputs(system, U):
 
 
 def _fit_physics(segment, U, Y, ctx, deps, start):
-    """The system's physics fitted on the records (from ``start``'s params)."""
+    """The system's physics fitted on the records, over segments of them."""
     system = ctx.system
     U_model = _model_inputs(system, U)
     model = system.physics(U_model, Y, ctx.dt, quick=ctx.quick)
-    if start is not None and isinstance(getattr(start, "params_", None), dict):
-        # The refit continues from the chosen candidate's fit, in the valley
-        # the validation tail judged: its starts are not fitted again.
-        model.set_params(params=dict(start.params_))
-        if "starts" in model.get_params(deep=False):
-            model.set_params(starts=None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         fit_segments(model, U_model, Y, segment)
@@ -428,20 +378,18 @@ def zoo(system, quick=False):
     """
     models = {
         "physics": ZooModel(
-            _fit_physics, _segments, keep_validation_fit=True, choice="segment"
+            _fit_physics, _segments, deterministic=True, choice="segment"
         ),
         "linear ARX": ZooModel(
             partial(_fit_narx, _arx_ridge),
             _arx_windows,
-            score_init=_window_init,
-            fit_errors=(ValueError, FloatingPointError),
+            deterministic=True,
             choice="n",
         ),
         "dense NARX": ZooModel(
             partial(_fit_narx, _dense_regressor),
             _linear_arx_window,
             requires=("linear ARX",),
-            score_init=_window_init,
             choice="n",
             notes={"window": "the linear ARX's"},
         ),
@@ -449,6 +397,7 @@ def zoo(system, quick=False):
             partial(_fit_correction, _correction_ridge),
             _correction_windows,
             requires=("physics",),
+            deterministic=True,
             choice="n",
         ),
         "physics + dense": ZooModel(
@@ -469,22 +418,170 @@ def zoo(system, quick=False):
         ),
     }
     if system.has_hybrids(quick):
-        # T and the architecture chosen on the tail; the chosen one is quoted as
-        # fitted on the first 75 % (a refit on the whole record would double the
-        # time).
+        # T and the architecture chosen by the folds, like every candidate.
         models["state-space hybrid"] = ZooModel(
-            _fit_state_space_hybrid,
-            _hybrids,
-            requires=("physics",),
-            refit=False,
-            fit_errors=(TrainingDivergedError, SimulationDivergedError),
+            _fit_state_space_hybrid, _hybrids, requires=("physics",)
         )
     return models
 
 
 # -- choose, refit, score --------------------------------------------------------------
+#: Folds of every choice: blocks of each estimation record (fewer where a block
+#: would be shorter than 8 initialisation windows).
+N_SPLITS = 4
+
+
+class ZooCandidate(BaseEstimator):
+    """One model of the zoo at one candidate setting, as the search fits it.
+
+    :class:`~skhybrid.model_selection.SimulationSearchCV` clones it with each
+    ``key`` of the model's candidates and the fold's ``random_state``, and calls
+    ``fit(U, Y)`` on the fold's fit pieces. A deterministic model's fit is kept
+    in the run's cache (``ctx.cache``), keyed by everything it depends on, so
+    the same fit on the same records is never computed twice: a physics fitted
+    for its own choice is the physics its corrections are built on, and a seed
+    that cannot change a fit reuses another seed's.
+
+    Parameters
+    ----------
+    model : ZooModel
+        The model's fit and candidates.
+    ctx : MeasuredContext
+        The system and settings (its records are the whole estimation records).
+    candidates : dict
+        ``{key: candidate}`` of the model.
+    key : object
+        Which candidate.
+    physics : object or None, default=None
+        The fold's fitted physics, for a model that requires it.
+    random_state : int or None, default=None
+        Seed of the networks (the context's where None).
+    """
+
+    def __init__(
+        self,
+        model=None,
+        ctx=None,
+        candidates=None,
+        key=None,
+        physics=None,
+        random_state=None,
+    ):
+        self.model = model
+        self.ctx = ctx
+        self.candidates = candidates
+        self.key = key
+        self.physics = physics
+        self.random_state = random_state
+
+    def fit(self, U, Y):
+        """Fit the candidate on records ``U, Y``.
+
+        Parameters
+        ----------
+        U, Y : list of ndarray
+            Inputs and outputs of each record (a fold's fit pieces).
+
+        Returns
+        -------
+        self : ZooCandidate
+            Fitted (``model_``).
+        """
+        ctx = self.ctx
+        if self.random_state is not None and not self.model.deterministic:
+            ctx = replace(ctx, seed=int(self.random_state))
+        physics = getattr(self.physics, "model_", self.physics)
+        deps = {} if physics is None else {"physics": physics}
+        candidate = self.candidates[self.key]
+        # What the fit depends on, besides the run's spec (fixed for a run
+        # folder): the model, its candidate, the records, the physics it is
+        # built on and, for a network, its seed.
+        self.cache_key_ = hashlib.sha256(
+            repr(
+                (
+                    ctx.label,
+                    repr(candidate),
+                    records_digest(U, Y),
+                    ctx.quick,
+                    ctx.n_init,
+                    ctx.dt,
+                    getattr(self.physics, "cache_key_", None),
+                    None if self.model.deterministic else ctx.seed,
+                )
+            ).encode()
+        ).hexdigest()
+        cached = _cache_path(ctx, self.cache_key_) if self.model.deterministic else None
+        if cached is not None and cached.is_file():
+            self.model_ = joblib.load(cached)
+            return self
+        self.model_ = self.model.fit(candidate, list(U), list(Y), ctx, deps, None)
+        if cached is not None:
+            _keep(self.model_, cached)
+        return self
+
+    def __sklearn_clone__(self):
+        # The context is frozen and shared (it holds the run's progress sink,
+        # which cannot be copied); the candidates and physics are not changed.
+        return type(self)(**self.get_params(deep=False))
+
+    def simulate(self, inputs, initial):
+        """Free run of the fitted candidate (see the model's ``simulate``).
+
+        Parameters
+        ----------
+        inputs : ndarray of shape (n_times, n_inputs)
+            A record's inputs.
+        initial : ndarray of shape (n_init, n_outputs)
+            Its first measured outputs.
+
+        Returns
+        -------
+        outputs : ndarray
+            The simulated outputs.
+        """
+        return self.model_.simulate(inputs, initial)
+
+
+def _cache_path(ctx, key):
+    return None if ctx.cache is None else Path(ctx.cache) / f"{key}.joblib"
+
+
+def _keep(model, path):
+    """Keep a deterministic fit in the run's cache (best effort: a model that
+    cannot be stored is fitted again where it is needed)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        _write_atomic(path, lambda p: joblib.dump(model, p))
+    except (OSError, pickle.PicklingError, AttributeError, TypeError) as exc:
+        logger.info("not cached (%s): %s", path.name, exc)
+
+
+def _on_physics(model, ctx, candidates, physics, key=None, random_state=None):
+    """A candidate built on the fold's fitted physics (the search's factory)."""
+    return ZooCandidate(model, ctx, candidates, key, physics, random_state)
+
+
+def _shared_physics(ctx, deps):
+    """The physics the model's candidates are built on: the chosen one, unfitted.
+
+    Fitted by the search on each fold's pieces and on the whole records; the
+    run's cache hands back the fits the physics' own choice made.
+    """
+    physics = zoo(ctx.system, ctx.quick)["physics"]
+    candidates = physics.candidates(ctx, {})
+    key = deps["physics"]["fit"]["selection"][physics.choice]
+    return ZooCandidate(physics, replace(ctx, label="physics"), candidates, key)
+
+
 def choose_and_refit(model, ctx, deps):
-    """Fit each candidate on the first 75 %, choose on the tails, refit the choice.
+    """Choose a model's candidate by blocked cross-validation, then refit it.
+
+    Every candidate is fitted on each fold's fit pieces of the estimation records
+    (:class:`~skhybrid.model_selection.RecordBlockSplit`) and simulated in free
+    run over the fold's held-out blocks, each from its own first ``n_init``
+    measured outputs; the lowest mean RMSE over the folds wins and is refitted on
+    the whole records (:class:`~skhybrid.model_selection.SimulationSearchCV`).
+    A model built on the physics gets the fold's physics fit.
 
     Parameters
     ----------
@@ -493,76 +590,89 @@ def choose_and_refit(model, ctx, deps):
     ctx : MeasuredContext
         The system, the estimation records and the settings.
     deps : dict of str to dict
-        For each required model: ``model`` (its fit on the whole records),
-        ``validation_fit`` (on the first 75 %) and ``fit`` (its fit record).
+        For each required model: ``fit`` (its fit record, with its choice).
 
     Returns
     -------
     fitted : object or None
-        The chosen model as quoted (None when every candidate failed).
-    validation_fit : object or None
-        The chosen candidate's fit on the first 75 %.
+        The chosen candidate refitted on the whole records (None when every
+        candidate failed).
     selection : dict
-        Validation RMSE of every candidate (official units), the choice, on
-        what the quoted model was fitted and, under ``errors``, why each
-        candidate whose fit failed did (its exception's type and message).
+        Every candidate's CV RMSE (mean and by fold, official units), the
+        choice, the folds used and why, and, under ``errors``, why a
+        candidate's fold failed.
     runs : list of ndarray or None
-        The chosen candidate's free runs over the validation tails (None when
-        every candidate failed).
+        The chosen candidate's out-of-fold free runs: for each fold, its
+        simulated samples of the held-out blocks after their first ``n_init``.
     """
-    U, Y, n_init = ctx.U, ctx.Y, ctx.n_init
-    (u_a, y_a), (u_b, y_b) = _tail_split(U, Y)
+    U, Y, n_init = list(ctx.U), list(ctx.Y), ctx.n_init
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
-    on_part = {k: d["validation_fit"] for k, d in deps.items()}
-    scores, fitted, errors, runs = {}, {}, {}, {}
-    for key, candidate in candidates.items():
-        t0 = time.perf_counter()
-        try:
-            fit = model.fit(candidate, u_a, y_a, ctx, on_part, None)
-        except model.fit_errors as exc:
-            scores[key] = float("inf")
-            errors[str(key)] = f"{type(exc).__name__}: {exc}"
-            logger.info("%s %s: %s", ctx.label, key, exc)
-            continue
-        scores[key], runs[key] = _score(
-            fit, u_b, y_b, model.score_init(candidate, n_init)
-        )
-        fitted[key] = fit
-        logger.info(
-            "%s %s: validation %.4g (%.0f s)",
-            ctx.label,
-            key,
-            scale * scores[key],
-            time.perf_counter() - t0,
-        )
-    best = min(scores, key=scores.get)
-    validation_fit = fitted.get(best)
-    if validation_fit is not None and model.refit:
-        whole = {k: d["model"] for k, d in deps.items()}
-        chosen = model.fit(candidates[best], U, Y, ctx, whole, validation_fit)
+    keys = list(candidates)
+    if "physics" in model.requires:
+        estimator = partial(_on_physics, model, ctx, candidates)
+        physics = _shared_physics(ctx, deps)
     else:
-        chosen = validation_fit
+        estimator, physics = ZooCandidate(model, ctx, candidates), None
+    search = SimulationSearchCV(
+        [(ctx.label or "model", estimator, {"key": keys})],
+        physics=physics,
+        cv=RecordBlockSplit(N_SPLITS, n_init=n_init),
+        random_state=ctx.seed,
+    )
+    results, chosen, runs = None, None, None
+    try:
+        with warnings.catch_warnings():
+            # Each failed fold is kept in the selection's errors below.
+            warnings.simplefilter("ignore", FitFailedWarning)
+            search.fit(U, Y)
+        results = search.cv_results_
+    except ValueError as exc:
+        if not hasattr(search, "cv_results_"):
+            raise
+        results = search.cv_results_
+        logger.info("%s: every candidate failed: %s", ctx.label, exc)
+    n_splits = int(results["n_splits"][0])
+    means = results["mean_test_score"]
+    by_fold = np.column_stack(
+        [results[f"split{k}_test_score"] for k in range(n_splits)]
+    )
+    errors = {}
+    for i, key in enumerate(keys):
+        reasons = [results[f"split{k}_error"][i] for k in range(n_splits)]
+        reasons = [r for r in reasons if r is not None]
+        if reasons:
+            # The first fold's reason, short: an exception may quote its data.
+            errors[str(key)] = reasons[0][:300]
+    best = int(np.argmin(means))
+    if np.isfinite(means[best]):
+        chosen = getattr(search, "best_estimator_", None)
+        chosen = None if chosen is None else chosen.model_
+        runs = search.best_oof_runs_
+    for key in keys[:1] if chosen is None else ():
+        logger.info("%s %s: no candidate scored", ctx.label, key)
     selection = {
-        "validation_rmse_by_candidate": {str(k): scale * v for k, v in scores.items()},
-        model.choice: best,
-        "validation_rmse": scale * scores[best],
-        "fitted_on": (
-            "the whole estimation records"
-            if model.refit
-            else "the first 75 % of each estimation record"
-        ),
+        "validation_rmse_by_candidate": {
+            str(k): scale * float(m) for k, m in zip(keys, means, strict=True)
+        },
+        "cv_rmse_by_fold": {
+            str(k): [scale * float(v) for v in row]
+            for k, row in zip(keys, by_fold, strict=True)
+        },
+        model.choice: keys[best],
+        "validation_rmse": scale * float(means[best]),
+        "cv_rmse_std": scale * float(np.std(by_fold[best])),
+        "cv_folds": n_splits,
+        "cv_folds_reason": getattr(search, "n_splits_reason_", ""),
+        "fitted_on": "the whole estimation records",
+        "validation_start": int(n_init),
         **model.notes,
     }
     if errors:
         selection["errors"] = errors
-    if isinstance(candidates[best], dict):
-        selection["settings"] = {k: repr(v) for k, v in candidates[best].items()}
-    if best in runs:
-        # The chosen candidate's free runs over the validation tails, and the
-        # sample each is scored from: its residuals are the stochastic part.
-        selection["validation_start"] = int(model.score_init(candidates[best], n_init))
-    return chosen, validation_fit, selection, runs.get(best)
+    if isinstance(candidates[keys[best]], dict):
+        selection["settings"] = {k: repr(v) for k, v in candidates[keys[best]].items()}
+    return chosen, selection, runs
 
 
 def _n_epochs(model):
@@ -599,7 +709,7 @@ def fit_model(name, model, ctx, deps, sink=None):
     name : str
         ``name``.
     out : dict
-        ``estimator``, ``extras`` (``validation_fit`` where kept),
+        ``estimator``, ``extras`` (none),
         ``predictions`` (empty: no test record is simulated yet), ``fit_time``,
         ``n_epochs``, ``params``, ``warnings``, ``validation_rmse``,
         ``selection`` and ``validation_runs`` (the chosen candidate's free runs
@@ -609,7 +719,7 @@ def fit_model(name, model, ctx, deps, sink=None):
     with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()
-        chosen, validation_fit, selection, runs = choose_and_refit(model, ctx, deps)
+        chosen, selection, runs = choose_and_refit(model, ctx, deps)
         fit_time = time.perf_counter() - start
     if chosen is None:
         selection["failed"] = "every candidate's fit failed"
@@ -626,8 +736,6 @@ def fit_model(name, model, ctx, deps, sink=None):
         for key, reason in selection.get("errors", {}).items()
     ]
     extras = {}
-    if model.keep_validation_fit and validation_fit is not None:
-        extras["validation_fit"] = validation_fit
     params = {} if chosen is None else physical_params(chosen)
     rmse = getattr(chosen, "rmse_", None) if name == "physics" else None
     if rmse is not None:

@@ -341,6 +341,10 @@ def run_experiment(
     if measured:
         result = system.new_result(settings, data)
         system = result.system  # bound to its spec
+        if folder is not None:
+            # Deterministic fits are computed once per records and kept here:
+            # every seed, and every model built on the physics, reads them.
+            result.cache_dir = str(folder.path / "cache")
         zoo = system.model_zoo(settings)
     else:
         splits = system.make_splits(settings)

@@ -10,8 +10,10 @@ beside the test figures, so a reader can check that the figures come from the
 selection the file records, made before the test was seen.
 """
 
+import functools
 import hashlib
 import json
+import re
 import time
 
 import numpy as np
@@ -31,6 +33,7 @@ from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
 __all__ = [
     "MeasuredRun",
     "describe_spec",
+    "record_digests",
     "run_seeds",
     "score_tests",
     "seal",
@@ -55,26 +58,60 @@ def describe_spec(spec, U, Y=None):
         Name, sample period, ``n_init``, record lengths, the physics, the
         candidate family and the notes.
     """
-    physics = spec.physics
     return {
         "name": spec.name,
         "dt": spec.sample_period(),
         "n_init": spec.n_init,
         "record_lengths": [len(u) for u in U],
         "records_sha256": None if Y is None else records_digest(U, Y),
-        "physics": repr(physics)
-        if hasattr(physics, "get_params")
-        else (getattr(physics, "__qualname__", repr(physics))),
-        "segments": spec.segments if spec.segments == "auto" else list(spec.segments),
-        "hybrids": spec.hybrids
-        if spec.hybrids in ("auto", None)
-        else {
-            k: {p: repr(v) for p, v in settings.items()}
-            for k, settings in spec.hybrids.items()
-        },
+        "physics": _describe(spec.physics),
+        "physics_inputs": _describe(spec.physics_inputs),
+        "segments": _describe(spec.segments),
+        "hybrids": _describe(spec.hybrids),
         "hybrid_records": spec.hybrid_records,
         "notes": spec.notes,
     }
+
+
+def _qualified_name(obj):
+    """``module.qualname`` of a function or class: the same in every session."""
+    module = getattr(obj, "__module__", None) or type(obj).__module__
+    name = getattr(obj, "__qualname__", None) or getattr(obj, "__name__", None)
+    return f"{module}.{name or type(obj).__qualname__}"
+
+
+def _describe(value):
+    """``value`` as JSON-ready data that does not depend on the session.
+
+    Estimators by class and parameters, callables by ``module.qualname``; never
+    a ``repr`` holding a memory address, so the seal's hash repeats in a fresh
+    process and after a resume.
+    """
+    if hasattr(value, "get_params") and not isinstance(value, type):
+        params = value.get_params(deep=False)
+        return {
+            "class": _qualified_name(type(value)),
+            "params": {k: _describe(v) for k, v in sorted(params.items())},
+        }
+    if isinstance(value, dict):
+        return {str(k): _describe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_describe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _describe(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, functools.partial):
+        return {
+            "partial": _describe(value.func),
+            "args": _describe(list(value.args)),
+            "keywords": _describe(value.keywords),
+        }
+    if callable(value):
+        return _qualified_name(value)
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(value))
 
 
 def _canonical(value):
@@ -176,9 +213,9 @@ def score_tests(result, tests, folder=None):
 def stochastic_part(result):
     """The chosen model's residual tests, noise model and band coverage.
 
-    The noise model is fitted on the chosen model's free-run residuals over the
-    validation tails (never on a test record); its band is then laid on each
-    test record's free run.
+    The noise model is fitted on the chosen model's out-of-fold free-run
+    residuals over the held-out blocks of the estimation records (never on a
+    test record); its band is then laid on each test record's free run.
 
     Parameters
     ----------
@@ -199,12 +236,14 @@ def stochastic_part(result):
     if model is None or runs is None:
         return {"model": model, "level": BAND_LEVEL, "noise": {"fitted": False}}
     start = int(result.fits[model].get("selection", {}).get("validation_start", 0))
-    U_b, Y_b = result.validation_blocks()
-    residuals = [
-        np.ravel(y)[start:] - np.ravel(p)[start:]
-        for y, p in zip(Y_b, runs, strict=True)
-    ]
-    inputs = np.vstack([np.asarray(u)[start:] for u in U_b])
+    # The held-out blocks of each fold, after their first samples, joined block
+    # after block as the out-of-fold runs are.
+    residuals, inputs = [], []
+    for (U_b, Y_b), run in zip(result.validation_blocks(), runs, strict=True):
+        measured = np.concatenate([np.ravel(y)[start:] for y in Y_b])
+        residuals.append(measured - np.ravel(run))
+        inputs.append(np.vstack([np.asarray(u)[start:] for u in U_b]))
+    inputs = np.vstack(inputs)
     scale = result.system.scale
     noise, description = fit_noise(residuals)
     out = {
@@ -446,6 +485,37 @@ class MeasuredRun:
         }
 
 
+def record_digests(system, seeds, *, quick=False, data=None):
+    """Read and check the estimation records; their SHA-256 under each seed's name.
+
+    A run calls it before its folder changes: a bad record (or a test record
+    given as data that does not fit them) is refused here, and a run carried on
+    must find the records its finished models were fitted on
+    (:meth:`~skhybrid.experiments._store.RunFolder.start`).
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The system.
+    seeds : list of int
+        The run's seeds.
+    quick : bool, default=False
+        A built-in benchmark's quick form.
+    data : str or Path or None, default=None
+        A built-in benchmark's data folder; None fetches its files.
+
+    Returns
+    -------
+    digests : dict of str to str
+        ``{name of a seed's models in the folder: SHA-256 of the records}``.
+    """
+    bound = system.bind(data, quick)
+    digest = records_digest(*bound.spec.estimation_records())
+    return {
+        bound.store_key(bound.default_settings(quick, seed)): digest for seed in seeds
+    }
+
+
 def run_seeds(
     system,
     *,
@@ -494,7 +564,8 @@ def run_seeds(
     ]
     sealed = seal(results, None if folder is None else folder.path)
     # The first read of the test records: after the selection file is written.
-    tests = results[0].system.spec.test_records()
+    # Checked against the estimation records before any model is simulated.
+    tests = results[0].system.spec.test_records(*results[0].train)
     for result in results:
         score_tests(result, tests, folder)
     run = MeasuredRun(results, sealed)

@@ -12,20 +12,27 @@ A run writes into one folder (``skhybrid run --out DIR``)::
       models/SYSTEM/MODEL.*.joblib other fits kept with it (a measured physics'
                                  fit on the validation part)
       models/SYSTEM/MODEL.npz    its predictions on every test split
-      models/SYSTEM/MODEL.json   its fit record and scores; written last, so a model
-                                 is finished exactly when this file exists
+      models/SYSTEM/MODEL.json   its fit record, scores and the SHA-256 of each of its
+                                 files (checked when loaded); written last, so a
+                                 model is finished exactly when this file exists
       results.csv, results.json, report.html, *.png   once every model is finished
 
 Every file is written to a temporary name and renamed into place, so an interrupt
-leaves either the whole file or none of it.
+leaves either the whole file or none of it. A run starts as a transaction: every
+check (the folder's run, the records, the stored files) is made before anything
+in the folder changes; a run replaced by ``--overwrite`` is moved aside and
+deleted only once the new run has started.
 """
 
+import hashlib
 import json
 import os
+import pickle
 import re
 import shutil
 import socket
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +74,32 @@ def _write_atomic(path, write):
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def _sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _dump(estimator, path):
+    """Pickle ``estimator`` to ``path`` with cloudpickle (``joblib.load`` reads it).
+
+    cloudpickle stores the functions and classes defined in ``__main__`` (a
+    script, a notebook) by value, as loky and Dask send them to their workers,
+    and everything importable by reference, as pickle does: a physics written in
+    the script that ran loads in a new session.
+    """
+    import cloudpickle
+
+    with open(path, "wb") as f:
+        cloudpickle.dump(estimator, f, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+#: Where a run replaced by ``--overwrite`` waits until the new run has started.
+REPLACED = ".replaced"
 
 
 def _pid_alive(pid):
@@ -223,8 +256,13 @@ class RunFolder:
             (self.path / name).exists() for name in REPORT_FILES
         )
 
-    def start(self, identity, command, *, overwrite=False, resume=False):
+    def start(self, identity, command, *, overwrite=False, resume=False, records=None):
         """Decide what happens to what the folder holds, and record the run.
+
+        Every refusal comes before anything in the folder changes: the folder's
+        run, the records the finished models were fitted on and the stored
+        files' checksums are checked first; only then is a replaced run moved
+        aside (see :meth:`discard_replaced`) and ``run.json`` written.
 
         Parameters
         ----------
@@ -233,20 +271,35 @@ class RunFolder:
         command : str
             The command line, recorded for the resume hint.
         overwrite : bool, default=False
-            Remove a previous run's models and report first.
+            Replace a previous run: its models and report are moved aside.
         resume : bool, default=False
             Also accept a finished run of the same identity (its report is
             written again from the stored models, with no training).
+        records : dict of str to str or None, default=None
+            ``{system: SHA-256 of its records}`` (a measured system's, for each
+            seed's name in the folder): a run carried on must find the records
+            its finished models were fitted on.
 
         Returns
         -------
         n_finished : int
             Models already finished in the folder (kept and skipped).
+
+        Raises
+        ------
+        RunFolderError
+            The folder holds a run this one must not touch, or fitted on other
+            records, or a stored file is damaged; nothing was changed.
         """
+        if overwrite and resume:
+            raise RunFolderError(
+                "--overwrite replaces the run in the folder and --resume carries it "
+                "on: pass one of them, not both"
+            )
         manifest = self.read_manifest()
+        replace = False
         if overwrite:
-            self.clear()
-            manifest = None
+            replace = True
         elif manifest is None and self.has_foreign_results():
             raise RunFolderError(
                 f"--out {self.path} already holds results (a report or models) "
@@ -264,9 +317,8 @@ class RunFolder:
             and not self._any_finished()
         ):
             # A run that finished nothing: nothing to lose, start afresh.
-            self.clear()
-            manifest = None
-        if manifest is not None:
+            replace = True
+        if not replace and manifest is not None:
             same = manifest.get("identity") == identity
             if manifest.get("status") == "complete" and not (same and resume):
                 raise RunFolderError(
@@ -281,6 +333,12 @@ class RunFolder:
                     f"(`{manifest.get('command')}`); resume it with that command, "
                     "pass --overwrite to replace it, or choose another --out"
                 )
+        if not replace:
+            for system, digest in (records or {}).items():
+                self.check_records(system, digest, write=False)
+            self.verify()
+        if replace:
+            self._set_aside()
         n_finished = self.n_finished()
         self.write_manifest(
             {
@@ -291,6 +349,63 @@ class RunFolder:
             }
         )
         return n_finished
+
+    def _set_aside(self):
+        """Move what a previous run wrote into :data:`REPLACED` (not yet deleted)."""
+        aside = self.path / REPLACED
+        shutil.rmtree(aside, ignore_errors=True)  # a replaced run never deleted
+        aside.mkdir()
+        names = ["models", "cache", *REPORT_FILES, "run.json"]
+        names += [png.name for png in self.path.glob("*.png")]
+        for name in names:
+            if (self.path / name).exists():
+                os.replace(self.path / name, aside / name)
+
+    def discard_replaced(self):
+        """Delete the run ``start(overwrite=True)`` moved aside.
+
+        Called once the new run has started cleanly (its spec checked, its
+        records read): until then the replaced run is still in the folder.
+        """
+        shutil.rmtree(self.path / REPLACED, ignore_errors=True)
+
+    def verify(self):
+        """Check every finished model's files against their recorded SHA-256.
+
+        Raises
+        ------
+        RunFolderError
+            A file is missing or damaged; the message names it and the fix.
+        """
+        models = self.path / "models"
+        if not models.is_dir():
+            return
+        for folder in sorted(d for d in models.iterdir() if d.is_dir()):
+            for record in self.finished(folder.name).values():
+                for name in record.get("sha256") or {}:
+                    self._check_file(folder.name, record, name)
+
+    def _check_file(self, system, record, name):
+        """The path of a finished model's file, checked against its SHA-256."""
+        folder = self._model_dir(system)
+        path = folder / name
+        expected = (record.get("sha256") or {}).get(name)
+        problem = None
+        if not path.is_file():
+            problem = "is missing"
+        elif expected is not None and _sha256(path) != expected:
+            problem = (
+                "is damaged: its SHA-256 differs from the one recorded when it was "
+                "written"
+            )
+        if problem is not None:
+            raise RunFolderError(
+                f"{path} {problem} (model {record.get('model')!r}); rerun with "
+                f"--overwrite (overwrite=True) to fit the run again, or delete "
+                f"{folder / (_slug(record.get('model', '')) + '.json')} and rerun "
+                "with --resume to fit that model alone again"
+            )
+        return path
 
     def n_finished(self):
         """Finished models in the folder, of every system and seed."""
@@ -332,8 +447,9 @@ class RunFolder:
         self.write_manifest(manifest)
 
     def clear(self):
-        """Remove what a previous run wrote (models, report, figures, run.json)."""
+        """Remove what a previous run wrote: models, cache, report, run.json."""
         shutil.rmtree(self.path / "models", ignore_errors=True)
+        shutil.rmtree(self.path / "cache", ignore_errors=True)
         for name in (*REPORT_FILES, "run.json"):
             (self.path / name).unlink(missing_ok=True)
         for png in self.path.glob("*.png"):
@@ -359,8 +475,9 @@ class RunFolder:
         return out
 
     def load_predictions(self, system, record):
-        """``{split: ndarray}`` of a finished model's predictions."""
-        with np.load(self._model_dir(system) / record["predictions"]) as data:
+        """``{split: ndarray}`` of a finished model's predictions (checked)."""
+        path = self._check_file(system, record, record["predictions"])
+        with np.load(path) as data:
             return {split: data[split] for split in data.files}
 
     def load_estimator(self, system, record, extra=None):
@@ -380,6 +497,12 @@ class RunFolder:
         -------
         estimator : object or None
             None where none was stored.
+
+        Raises
+        ------
+        RunFolderError
+            The file is missing, damaged (its SHA-256 differs from the record's)
+            or cannot be loaded; the message names it and the fix.
         """
         import joblib
 
@@ -390,8 +513,21 @@ class RunFolder:
         )
         if name is None:
             return None
-        with open(self._model_dir(system) / name, "rb") as f:
-            return joblib.load(f)
+        path = self._check_file(system, record, name)
+        try:
+            with open(path, "rb") as f:
+                return joblib.load(f)
+        except (EOFError, ImportError, AttributeError, ValueError) as exc:
+            # pickle.UnpicklingError is a ValueError's sibling: caught below.
+            raise RunFolderError(
+                f"{path} cannot be loaded ({type(exc).__name__}: {exc}); rerun with "
+                "--overwrite (overwrite=True) to fit the run again"
+            ) from exc
+        except pickle.UnpicklingError as exc:
+            raise RunFolderError(
+                f"{path} cannot be loaded ({exc}); rerun with --overwrite "
+                "(overwrite=True) to fit the run again"
+            ) from exc
 
     def save_arrays(self, system, name, arrays):
         """Write named arrays beside a system's models (``<name>.npz``).
@@ -414,7 +550,7 @@ class RunFolder:
 
         _write_atomic(folder / f"{_slug(name)}.npz", save)
 
-    def check_records(self, system, digest):
+    def check_records(self, system, digest, write=True):
         """Refuse to carry on a run whose records changed; record them otherwise.
 
         Parameters
@@ -424,6 +560,8 @@ class RunFolder:
         digest : str
             SHA-256 of the records the run fits
             (:func:`~skhybrid.experiments._spec.records_digest`).
+        write : bool, default=True
+            Record ``digest`` where none is checked; False only checks.
 
         Raises
         ------
@@ -440,6 +578,8 @@ class RunFolder:
                     "on these records, or choose another --out"
                 )
             return
+        if not write:
+            return
         folder.mkdir(parents=True, exist_ok=True)
         _write_atomic(path, lambda p: p.write_text(digest + "\n"))
 
@@ -453,7 +593,8 @@ class RunFolder:
         name : str
             The model's name in the zoo.
         estimator : estimator or None
-            The fitted model (pickled with joblib); None writes no pickle.
+            The fitted model (pickled with cloudpickle, read with
+            ``joblib.load``); None writes no pickle.
         predictions : dict of str to ndarray
             Predictions on each test split.
         record : dict
@@ -463,36 +604,32 @@ class RunFolder:
             Other fitted estimators kept with the model (a measured physics'
             fit on the validation part, which later models start from).
         """
-        import joblib
-
         folder = self._model_dir(system)
         folder.mkdir(parents=True, exist_ok=True)
         stem = _slug(name)
         record = dict(record, model=name, predictions=f"{stem}.npz")
+        checksums = {}
         if estimator is not None:
 
-            def dump(p):
-                with open(p, "wb") as f:
-                    joblib.dump(estimator, f)
-
-            _write_atomic(folder / f"{stem}.joblib", dump)
+            _write_atomic(folder / f"{stem}.joblib", partial(_dump, estimator))
             record["estimator"] = f"{stem}.joblib"
+            checksums[f"{stem}.joblib"] = _sha256(folder / f"{stem}.joblib")
         for key, extra in (extras or {}).items():
             if extra is None:
                 continue
             file = f"{stem}.{_slug(key)}.joblib"
 
-            def dump_extra(p, extra=extra):
-                with open(p, "wb") as f:
-                    joblib.dump(extra, f)
-
-            _write_atomic(folder / file, dump_extra)
+            _write_atomic(folder / file, partial(_dump, extra))
             record.setdefault("extras", {})[key] = file
+            checksums[file] = _sha256(folder / file)
 
         def save(p):
             with open(p, "wb") as f:
                 np.savez(f, **predictions)
 
         _write_atomic(folder / f"{stem}.npz", save)
+        checksums[f"{stem}.npz"] = _sha256(folder / f"{stem}.npz")
+        # Checked on load and on resume: a damaged file is named, not unpickled.
+        record["sha256"] = checksums
         text = json.dumps(record, indent=1)
         _write_atomic(folder / f"{stem}.json", lambda p: p.write_text(text))

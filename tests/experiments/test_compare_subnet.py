@@ -16,9 +16,8 @@ def test_without_deepsi_it_says_how_to_install_it(monkeypatch, benchmark_script)
 
 def test_it_fits_the_part_the_selection_fits(shared_data_dir, benchmark_script):
     from skhybrid.datasets import load_coupled_electric_drives
-    from skhybrid.experiments._measured_zoo import _tail_split
 
     d = load_coupled_electric_drives(shared_data_dir)
     U = [d.splits[k].u for k in ("train_1", "train_2")]
-    (fit_u, _), _ = _tail_split(U, U)
-    assert [len(u) for u in fit_u] == [benchmark_script(SCRIPT).N_FIT] * 2
+    # Three quarters of each record: what its documented run was fitted on.
+    assert [int(0.75 * len(u)) for u in U] == [benchmark_script(SCRIPT).N_FIT] * 2

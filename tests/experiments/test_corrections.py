@@ -12,9 +12,9 @@ from sklearn.linear_model import Ridge
 from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.benchmarks.silverbox import with_next_input
 from skhybrid.experiments._measured_zoo import (
+    N_SPLITS,
     MeasuredContext,
     ZooModel,
-    _tail_split,
     choose_and_refit,
     fit_model,
 )
@@ -24,6 +24,7 @@ from skhybrid.hybrid._correction import (
     _PhysicsCorrection,
     _TransformedInputs,
 )
+from skhybrid.model_selection import RecordBlockSplit
 
 EMPS = MEASURED_SYSTEMS["emps"]
 
@@ -163,48 +164,43 @@ def _constant_fit(calls):
 def test_a_failed_candidate_is_named_in_the_models_warnings():
     u = np.zeros((400, 1))
     y = np.full((400, 1), 2.0)
-    ctx = MeasuredContext(EMPS, [u], [y], 10, 1e-3, True, 0)
-    model = ZooModel(
-        _constant_fit([]),
-        lambda ctx, records: {1.9: 1.9, "bad": "bad"},
-        fit_errors=(FloatingPointError,),
-    )
+    ctx = MeasuredContext(EMPS, [u], [y], 10, 1e-3, True, 0, label="constant")
+    model = ZooModel(_constant_fit([]), lambda ctx, records: {1.9: 1.9, "bad": "bad"})
     _, out = fit_model("constant", model, ctx, {})
     assert out["selection"]["chosen"] == 1.9
     # The report lists a model's warnings: the failure is there too.
-    assert out["warnings"] == ["candidate bad failed: FloatingPointError: diverged"]
+    assert out["warnings"] == [
+        "candidate bad failed: fit: FloatingPointError: diverged"
+    ]
 
 
-@pytest.mark.parametrize("refit", [True, False])
-def test_choose_and_refit_chooses_on_the_tail_and_refits_the_choice(refit):
+def test_choose_and_refit_chooses_by_the_folds_and_refits_the_choice():
     u = np.zeros((400, 1))
     y = np.full((400, 1), 2.0)
-    # Two records of different lengths: each has its own validation tail.
+    # Two records of different lengths, each cut into the same number of blocks.
     U, Y = [u, u[:240]], [y, y[:240]]
-    ctx = MeasuredContext(EMPS, U, Y, 10, 1e-3, True, 0)
+    ctx = MeasuredContext(EMPS, U, Y, 10, 1e-3, True, 0, label="constant")
     calls = []
     model = ZooModel(
         _constant_fit(calls),
         lambda ctx, records: {0.0: 0.0, 1.9: 1.9, 3.0: 3.0, "bad": "bad"},
-        refit=refit,
-        fit_errors=(FloatingPointError,),
         choice="level",
     )
-    chosen, on_part, selection, runs = choose_and_refit(model, ctx, {})
-    (U_a, _), (U_b, _) = _tail_split(U, Y)
-    assert [len(u) for u in U_a] == [300, 180] and [len(u) for u in U_b] == [100, 60]
-    assert on_part.level == 1.9 and on_part.fitted_on == 480
+    chosen, selection, runs = choose_and_refit(model, ctx, {})
+    folds = list(RecordBlockSplit(N_SPLITS, n_init=10).split(U, Y))
+    # The 240-sample record holds 3 blocks of at least 8 n_init: 3 folds.
+    assert selection["cv_folds"] == len(folds) == 3
     assert selection["level"] == 1.9
     assert selection["validation_rmse_by_candidate"]["bad"] == float("inf")
+    assert selection["cv_rmse_by_fold"]["1.9"] == pytest.approx([EMPS.scale * 0.1] * 3)
     # Why the failed candidate failed is kept in the run folder's record.
-    assert selection["errors"] == {"bad": "FloatingPointError: diverged"}
-    # The chosen candidate's free runs over each tail, for the stochastic part.
-    assert [len(r) for r in runs] == [100, 60]
-    assert selection["validation_start"] == 10
+    assert selection["errors"] == {"bad": "fit: FloatingPointError: diverged"}
+    # The chosen candidate's out-of-fold runs: each fold's held-out samples
+    # after their first n_init.
+    for run, (_, test) in zip(runs, folds, strict=True):
+        assert len(run) == sum(stop - start - 10 for _, start, stop in test)
     assert_allclose(selection["validation_rmse"], EMPS.scale * 0.1)
-    if refit:
-        assert chosen.fitted_on == 640 and calls[-1] == (1.9, 640, on_part)
-        assert selection["fitted_on"] == "the whole estimation records"
-    else:
-        assert chosen is on_part and len(calls) == 4
-        assert selection["fitted_on"] == "the first 75 % of each estimation record"
+    # Each candidate fitted on each fold's pieces, then the choice on the whole.
+    assert len(calls) == 4 * 3 + 1
+    assert chosen.fitted_on == 640 and calls[-1] == (1.9, 640, None)
+    assert selection["fitted_on"] == "the whole estimation records"

@@ -408,7 +408,15 @@ def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
 
 
 def test_a_physics_that_cannot_be_stored_is_refused_before_any_fit(machine, tmp_path):
-    physics = machine.physics().set_params(rhs=lambda x, u, *, xp, k, c, dt: x)
+    import threading
+
+    lock = threading.Lock()
+
+    def rhs(x, u, *, xp, k, c, dt):  # a closure over a lock: no pickle stores it
+        with lock:
+            return x
+
+    physics = machine.physics().set_params(rhs=rhs)
     with pytest.raises(TypeError, match=r"spec\.physics cannot be pickled"):
         run_system(machine.make_spec(physics=physics), tmp_path / "run", quick=True)
     assert not (tmp_path / "run").exists()
@@ -489,21 +497,19 @@ def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
         ridge.make_physics(U, Y, machine.DT)
 
 
-def test_the_refit_continues_from_the_chosen_fit_without_the_starts(machine, tmp_path):
+def test_the_starts_run_in_every_fit_of_the_physics(machine, tmp_path):
     import joblib
 
     out = tmp_path / "run"
     starts = [{"k": 0.05, "c": 3.0}, {"k": 1.5, "c": 0.4}]
     spec = machine.make_spec(out=out, physics_starts=starts, hybrids=None)
     run_system(spec, out, quick=True, seeds=[0])
-    folder = out / "models" / "toy-machine-seed-0"
-    chosen = joblib.load(folder / "physics.validation-fit.joblib").estimator
-    refit = joblib.load(folder / "physics.joblib").estimator
-    # The segment candidates ran the starts; the refit on the whole records
-    # started from the chosen candidate's fit and ran none.
-    assert chosen.starts == starts[1:]
-    assert refit.starts is None
-    assert refit.params == pytest.approx(chosen.params_)
+    refit = joblib.load(out / "models" / "toy-machine-seed-0" / "physics.joblib")
+    # Each fold's fit and the refit on the whole records start from the spec's
+    # starts alike (the first as params, the others as starts): no fit
+    # continues from another, so every fold is judged as the refit is made.
+    assert refit.estimator.starts == starts[1:]
+    assert refit.estimator.params["k"] == starts[0]["k"]
 
 
 def test_a_black_box_machine_runs_from_its_best_linear_approximation(machine, tmp_path):
@@ -549,3 +555,30 @@ def test_the_spec_hands_its_sample_period_to_a_physics_without_one(machine):
     # A physics given its own dt keeps it.
     spec = machine.make_spec(physics=physics.set_params(dt=0.05), hybrids=None)
     assert spec.make_physics(U, Y, spec.sample_period()).dt == 0.05
+
+
+def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
+    machine, tmp_path, monkeypatch
+):
+    from skhybrid.experiments import _measured_zoo
+    from skhybrid.experiments._spec import records_digest
+
+    fits = []
+    fit_physics = _measured_zoo._fit_physics
+
+    def counting(segment, U, Y, ctx, deps, start):
+        fits.append((segment, records_digest(U, Y)))
+        return fit_physics(segment, U, Y, ctx, deps, start)
+
+    monkeypatch.setattr(_measured_zoo, "_fit_physics", counting)
+    out = tmp_path / "run"
+    spec = machine.make_spec(out=out, hybrids=None, segments=(None, 100))
+    summary = run_system(spec, out, quick=True, seeds=[0, 1])
+    # Two seeds, and three models built on the physics: still each segment
+    # candidate fitted once on each fold's pieces, and the chosen one once on
+    # the whole records.
+    n_folds = summary["fits"]["0"]["physics"]["selection"]["cv_folds"]
+    assert len(fits) == len(set(fits)) == 1 * n_folds + 1  # quick: one segment
+    assert summary["chosen_model"]["0"] == min(
+        summary["validation_rmse"]["0"], key=summary["validation_rmse"]["0"].get
+    )

@@ -25,8 +25,8 @@ the same for a measured benchmark, scored by its official protocol beside
 the published figures: its files come from --data DIR, or are downloaded once
 into the data home ($SKHYBRID_DATA, else ~/skhybrid_data) and checked.
 `skhybrid run --system module:object` runs your own machine's SystemSpec the
-same way. A measured run chooses every model on validation tails of the
-estimation records at each seed (--seeds, default 0 1 2), writes the sealed
+same way. A measured run chooses every model by blocked cross-validation of
+the estimation records at each seed (--seeds, default 0 1 2), writes the sealed
 selection (selection.json, with its SHA-256) and only then reads the test
 records.
 """
@@ -571,9 +571,22 @@ class _Plan:
             )
 
     def check_files(self):
-        """Load and check a measured system's estimation records (or raise)."""
-        if self.measured:
-            self.system.check_files(self.args.data, quick=self.args.quick)
+        """Load and check a measured system's records (or raise); their SHA-256.
+
+        Returns
+        -------
+        records : dict of str to str or None
+            ``{name of a seed's models: SHA-256 of the records}``, for
+            :meth:`RunFolder.start`; None for a paper system.
+        """
+        if not self.measured:
+            return None
+        from skhybrid.experiments._sealed import record_digests
+
+        args = self.args
+        return record_digests(
+            self.system, self.seeds, quick=args.quick, data=args.data
+        )
 
     def fit(self, folder, n_jobs):
         args = self.args
@@ -616,23 +629,31 @@ def _run(args, argv, command, folder):
     start = time.perf_counter()
     started = False  # run.json is this run's only once start() has written it
     try:
+        # The folder's run first, then a measured system's files, at the
+        # boundary before the folder changes: a corrupt or missing file is one
+        # line and exit 2.
+        folder.check(plan.identity, overwrite=args.overwrite, resume=args.resume)
+        try:
+            records = plan.check_files()
+        except (ValueError, OSError) as exc:
+            _error(str(exc))
+            return 2
+        # Every refusal of the folder comes here too, before it changes.
         n_finished = folder.start(
-            plan.identity, command, overwrite=args.overwrite, resume=args.resume
+            plan.identity,
+            command,
+            overwrite=args.overwrite,
+            resume=args.resume,
+            records=records,
         )
         started = True
+        # The new run has started cleanly: the run it replaces can go.
+        folder.discard_replaced()
         if n_finished:
             sys.stdout.write(
                 f"resuming: {n_finished} of {n_models} models already finished in "
                 f"{folder.path}\n"
             )
-        # A measured system's files are checked at the boundary, before any
-        # model trains: a corrupt or missing file is one line and exit 2.
-        try:
-            plan.check_files()
-        except (ValueError, OSError) as exc:
-            _error(str(exc))
-            folder.mark("failed", str(exc))
-            return 2
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
             if args.dask is not None:
@@ -692,7 +713,7 @@ def _measured_lines(run):
     """The console's summary of a measured run: choice, seal, chosen test RMSE."""
     name, unit = run.system.name, run.system.unit
     sys.stdout.write(
-        f"  {name}: chosen on the validation tails of the estimation records: "
+        f"  {name}: chosen by cross-validation of the estimation records: "
         f"{run.selected_model()}\n"
         f"  sealed selection sha256 {run.sha256[:16]}... (selection.json), written "
         "before the test records were read\n"

@@ -11,7 +11,8 @@ folder with its lock and resume, joblib or Dask, progress, :func:`write_report`)
 - its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on the
   estimation records only, choosing every candidate (window and segment
   lengths, the state-space hybrid's horizon, the model quoted) on validation
-  tails of the records (their last 25 %), never on a test record;
+  blocked folds of the records (:class:`~skhybrid.model_selection.SimulationSearchCV`),
+  never on a test record;
 - every seed's selection is sealed (:mod:`skhybrid.experiments._sealed`), then
   each model is simulated in free run on each test record from the first
   ``n_init`` measured outputs and scored by ``RMSE(y[n_init:],
@@ -27,7 +28,7 @@ import skhybrid
 from skhybrid.experiments._measured_system import MeasuredSystem
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.experiments._report import write_report
-from skhybrid.experiments._sealed import run_seeds
+from skhybrid.experiments._sealed import record_digests, run_seeds
 from skhybrid.experiments._store import RunFolder
 
 __all__ = [
@@ -41,6 +42,34 @@ __all__ = [
 
 #: The seeds of a measured run: each a full selection.
 DEFAULT_SEEDS = (0, 1, 2)
+#: Largest seed: numpy's and scikit-learn's seeds are 32-bit unsigned integers.
+MAX_SEED = 2**32 - 1
+
+
+def _run_arguments(seeds, n_jobs, overwrite, resume):
+    """The Python API's arguments, checked as the command line checks its own.
+
+    ``seeds``: an int is one seed (``--seed S``), None the default seeds.
+    """
+    if seeds is None:
+        seeds = DEFAULT_SEEDS
+    elif isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        seeds = [seeds]
+    seeds = check_seeds(seeds)
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)):
+        raise TypeError(
+            f"n_jobs must be an int >= 1, or -1 for all cores; got n_jobs={n_jobs!r}."
+        )
+    if n_jobs == 0 or n_jobs < -1:
+        raise ValueError(
+            f"n_jobs must be an int >= 1, or -1 for all cores; got n_jobs={n_jobs!r}."
+        )
+    if overwrite and resume:
+        raise ValueError(
+            "overwrite=True replaces the run in the folder and resume=True carries "
+            "it on: pass one of them, not both."
+        )
+    return seeds, int(n_jobs)
 
 
 def check_seeds(seeds):
@@ -59,15 +88,24 @@ def check_seeds(seeds):
     Raises
     ------
     ValueError
-        An empty sequence, a seed that is not an int >= 0, or a repeated seed.
+        An empty sequence, a seed that is not an int between 0 and
+        ``2**32 - 1`` (numpy's seeds), or a repeated seed.
     """
+    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
+        raise ValueError(
+            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1; "
+            f"got seeds={seeds!r}."
+        )
     seeds = list(seeds)
     if not seeds or any(
-        isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0
+        isinstance(s, bool)
+        or not isinstance(s, (int, np.integer))
+        or not 0 <= s <= MAX_SEED
         for s in seeds
     ):
         raise ValueError(
-            f"seeds must be a non-empty sequence of ints >= 0; got seeds={seeds!r}."
+            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1 "
+            f"(numpy's seeds); got seeds={seeds!r}."
         )
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds must differ; got seeds={seeds!r}.")
@@ -107,13 +145,18 @@ def _run_folder(
 
     identity = measured_identity(system, quick, seeds)
     folder = RunFolder(out).prepare()
+    started = False  # run.json is this run's only once start() has written it
     try:
+        # Every refusal comes before the folder changes: the folder's run, then
+        # the records (read and checked), then what the folder holds of them.
+        folder.check(identity, overwrite=overwrite, resume=resume)
+        records = record_digests(system, seeds, quick=quick, data=data)
         folder.start(
-            identity,
-            command,
-            overwrite=overwrite,
-            resume=resume,
+            identity, command, overwrite=overwrite, resume=resume, records=records
         )
+        started = True
+        # The new run has started cleanly: the run it replaces can go.
+        folder.discard_replaced()
         run = run_seeds(
             system,
             seeds=seeds,
@@ -125,6 +168,15 @@ def _run_folder(
         )
         write_report([run], folder.path)
         folder.complete()
+    except KeyboardInterrupt:
+        if started:
+            done = folder.n_finished()
+            folder.mark("interrupted", f"Ctrl-C after {done} finished models")
+        raise
+    except BaseException as exc:
+        if started:
+            folder.mark("failed", f"{type(exc).__name__}: {exc}")
+        raise
     finally:
         folder.lock.release()
     return run.summary()
@@ -145,7 +197,7 @@ def run_system(
 
     The public workflow of a user's machine (and of the built-in benchmarks):
     at each seed the default candidate family is fitted on the estimation
-    records and every choice made on their validation tails; the selections of
+    records and every choice made by blocked cross-validation of them; the selections of
     all seeds are written to ``OUT/selection.json`` with their SHA-256 before
     any test record is read; then every model is simulated on the test records
     and ``results.csv``, ``results.json`` (the hash, each seed's choice and the
@@ -160,17 +212,19 @@ def run_system(
         The run folder, checked and locked before any fit; finished models are
         kept as they land and an unfinished run of the same settings is carried
         on.
-    seeds : sequence of int, default=(0, 1, 2)
-        Seeds of the networks; each is a full selection.
+    seeds : int, sequence of int or None, default=(0, 1, 2)
+        Seeds of the networks, each between 0 and ``2**32 - 1``; each is a full
+        selection. An int is one seed (``--seed S``); None the default seeds.
     quick : bool, default=False
         Shorter fits and fewer candidates (a smoke test, not a figure).
     n_jobs : int, default=1
-        Models fitted in parallel with joblib.
+        Models fitted in parallel with joblib (-1: all cores).
     overwrite : bool, default=False
-        Replace a previous run in ``out``.
+        Replace a previous run in ``out``: it is moved aside and deleted once
+        the new run has started (its records read and checked).
     resume : bool, default=False
         Also accept a finished run of the same settings (its report is written
-        again).
+        again). Not with ``overwrite``.
     progress : bool, default=False
         Progress bars on standard error.
 
@@ -178,6 +232,14 @@ def run_system(
     -------
     results : dict
         The system's entry of ``results.json``.
+
+    Raises
+    ------
+    RunFolderError
+        The folder cannot take this run (another run, other records, a damaged
+        stored file); nothing in it was changed. ``run.json`` records how a run
+        that started ended: ``"complete"``, ``"interrupted"`` (Ctrl-C) or
+        ``"failed"`` (an error), as the command line records it.
 
     Examples
     --------
@@ -188,8 +250,8 @@ def run_system(
     >>> results = run_system(spec, "runs/my-machine")  # doctest: +SKIP
     >>> results["chosen_test_rmse"]["test"]["mean"]  # doctest: +SKIP
     """
+    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume)
     system = MeasuredSystem.from_spec(spec)
-    seeds = check_seeds(seeds)
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
         f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"
@@ -230,10 +292,11 @@ def run_measured(
         ``report.html``, ``<name>.png`` and ``models/``.
     quick : bool, default=False
         Shorter fits (and a shorter Silverbox estimation record).
-    seeds : sequence of int, default=(0, 1, 2)
-        Seeds of the networks; each is a full selection.
+    seeds : int, sequence of int or None, default=(0, 1, 2)
+        Seeds of the networks; each is a full selection (an int is one seed,
+        None the default seeds).
     n_jobs : int, default=1
-        Models fitted in parallel with joblib.
+        Models fitted in parallel with joblib (-1: all cores).
     overwrite : bool, default=False
         Replace a previous run in ``out``.
 
@@ -247,7 +310,7 @@ def run_measured(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
         )
 
-    seeds = check_seeds(seeds)
+    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, False)
     words = ["run", name] + (["--data", str(data)] if data is not None else [])
     words += ["--out", str(out)] + ["--quick"] * bool(quick)
     words += ["--seeds", *map(str, seeds)]
@@ -286,6 +349,13 @@ def load_fitted(out, *, seed=0, model=None, system=None):
     estimator : object
         The fitted model; its ``simulate(inputs, initial)`` runs free from a
         record's first ``n_init`` measured outputs, as the run scored it.
+
+    Raises
+    ------
+    RunFolderError
+        The model's file is missing, damaged (its SHA-256 differs from the one
+        recorded when it was written) or cannot be loaded; the message names
+        it and the fix.
 
     Examples
     --------

@@ -174,7 +174,7 @@ def _stochastic_html(summary, unit):
         val = part.get("validation", {})
         rows.append(
             f"<tr><td>{seed}</td><td>{html.escape(part['model'])}</td>"
-            f"<td>validation tails</td><td>{_p(val.get('ljung_box_pvalue'))}</td>"
+            f"<td>held-out blocks (CV)</td><td>{_p(val.get('ljung_box_pvalue'))}</td>"
             f"<td>{_p(val.get('input_correlation_pvalue'))}</td>"
             f"<td>AR lags {lags}; std {noise['std']:.3g}, innovations "
             f"{noise['innovation_std']:.3g}, mean {noise['mean']:.3g}</td>"
@@ -238,9 +238,22 @@ def _params_text(params):
     return ", ".join(items) or "none fitted"
 
 
-def _figure_text(spread, reason=None):
+def _cv_text(summary, model):
+    """A model's CV RMSE: mean &plusmn; std over the folds (the seeds' mean)."""
+    entries = [v[model] for v in summary.get("cv_rmse", {}).values() if model in v]
+    if not entries:
+        return ""
+    mean = np.mean([e["mean"] for e in entries])
+    std = np.mean([e["std"] for e in entries])
+    return f"{mean:.4g} &plusmn; {std:.2g}"
+
+
+def _figure_text(spread, reason=None, deterministic=False):
     if spread["mean"] is None:
         return "failed" if reason is None else f"failed ({html.escape(reason)})"
+    if deterministic and spread["std"] == 0:
+        # The same fit at every seed: no spread to show.
+        return f"{spread['mean']:.4g} (deterministic)"
     text = f"{spread['mean']:.4g} &plusmn; {spread['std']:.2g}"
     if spread.get("n_failed"):
         text += f" ({spread['n_failed']} failed)"
@@ -266,29 +279,29 @@ def measured_section(run, figure):
     unit = html.escape(summary["unit"])
     seeds = ", ".join(str(s) for s in summary["seeds"])
     rows = []
+    fixed = set(summary.get("deterministic", []))
     for split, scores in summary["test_rmse"].items():
         chosen = summary["chosen_test_rmse"][split]
+        ratio = summary.get("chosen_test_over_cv", {}).get(split)
+        ratio = "" if not ratio or ratio["mean"] is None else f"{ratio['mean']:.2f}"
         rows.append(
-            f"<tr><td>{html.escape(split)}</td><td><b>chosen on validation</b></td>"
-            f"<td><b>{_figure_text(chosen)}</b></td><td></td><td>ours</td></tr>"
+            f"<tr><td>{html.escape(split)}</td><td><b>chosen by CV</b></td>"
+            f"<td><b>{_figure_text(chosen)}</b></td><td></td><td><b>{ratio}</b></td>"
+            "<td>ours</td></tr>"
         )
         for model, spread in scores.items():
-            validation = [
-                v[model] for v in summary["validation_rmse"].values() if model in v
-            ]
-            val = f"{np.mean(validation):.4g}" if validation else ""
             reason = (
                 failure_reason(run, split, model) if spread["mean"] is None else None
             )
             rows.append(
                 f"<tr><td>{html.escape(split)}</td><td>{html.escape(model)}</td>"
-                f"<td>{_figure_text(spread, reason)}</td><td>{val}</td>"
-                "<td>ours</td></tr>"
+                f"<td>{_figure_text(spread, reason, model in fixed)}</td>"
+                f"<td>{_cv_text(summary, model)}</td><td></td><td>ours</td></tr>"
             )
         for label, entry in summary["published"].get(split, {}).items():
             rows.append(
                 f"<tr><td>{html.escape(split)}</td><td>{html.escape(label)}</td>"
-                f"<td>{entry['rmse']:.4g}</td><td></td>"
+                f"<td>{entry['rmse']:.4g}</td><td></td><td></td>"
                 f"<td>{html.escape(entry['source'])}</td></tr>"
             )
     # Published figures of another protocol (another record, split or
@@ -320,19 +333,22 @@ def measured_section(run, figure):
     stochastic = _stochastic_html(summary, unit)
     return f"""<h2>{html.escape(summary["title"])}</h2>
 <p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
-deviation over seeds {seeds} (each seed a full selection); the first
-{summary["n_init"]} measured samples initialise the state. Every model was fitted
-on the estimation records only; every choice (window and segment lengths, the
-hybrid's horizon T, the model quoted) was made on the last 25 % of each record,
-with the candidates fitted on the first 75 %.
+deviation over seeds {seeds} (each seed a full selection; "deterministic" where no
+fit depends on the seed); the first {summary["n_init"]} measured samples initialise
+the state. Every model was fitted on the estimation records only. Every choice
+(window and segment lengths, the hybrid's horizon T, the model quoted) was made by
+blocked cross-validation of the estimation records: each record cut into blocks,
+every candidate fitted on the other blocks and simulated over the held-out one;
+its CV RMSE (mean &plusmn; standard deviation over the folds) is what a user should
+expect, and test / CV says how the chosen model's test compares with it.
 quick = {summary["quick"]}, {summary["wall_time_s"]:.0f} s.</p>
 <p>Sealed selection: <code>{SELECTION_FILE}</code>, SHA-256
 <code>{summary["selection_sha256"]}</code>, written before any test record was
 read.</p>{notes}
-<table><tr><th>test</th><th>model</th><th>RMSE [{unit}]</th>
-<th>validation RMSE [{unit}] (mean)</th><th>source</th></tr>
+<table><tr><th>test</th><th>model</th><th>test RMSE [{unit}]</th>
+<th>CV RMSE [{unit}]</th><th>test / CV</th><th>source</th></tr>
 {"".join(rows)}</table>
-<p>Chosen on the validation tails (never on a test record): {chosen}.</p>
+<p>Chosen by the lowest mean CV RMSE (never on a test record): {chosen}.</p>
 {apart}
 <p>Physics parameters fitted (value &plusmn; standard error): {params}</p>
 {stochastic}

@@ -398,7 +398,7 @@ class MeasuredResult:
         On the Silverbox arrow: the first test sample whose window leaves the
         training hull, and how many do.
     validation_runs : dict of str to list of ndarray
-        Each model's chosen candidate's free runs over the validation tails.
+        Each model's chosen candidate's out-of-fold free runs, by fold.
     stochastic : dict
         The chosen model's stochastic part once scored (see
         :mod:`skhybrid.experiments._stochastic`).
@@ -482,7 +482,7 @@ class MeasuredResult:
         }
 
     def selected_model(self):
-        """The model to quote: the lowest free-run RMSE on the validation tails."""
+        """The model to quote: the lowest mean CV free-run RMSE."""
         validation = self.validation_rmse()
         return min(validation, key=validation.get) if validation else None
 

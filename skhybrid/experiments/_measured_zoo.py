@@ -662,10 +662,12 @@ def choose_and_refit(model, ctx, deps):
         model.choice: keys[best],
         "validation_rmse": scale * float(means[best]),
         "cv_rmse_std": scale * float(np.std(by_fold[best])),
+        "cv_rmse_chosen_by_fold": [scale * float(v) for v in by_fold[best]],
         "cv_folds": n_splits,
         "cv_folds_reason": getattr(search, "n_splits_reason_", ""),
         "fitted_on": "the whole estimation records",
         "validation_start": int(n_init),
+        "deterministic": bool(model.deterministic),
         **model.notes,
     }
     if errors:
@@ -713,7 +715,7 @@ def fit_model(name, model, ctx, deps, sink=None):
         ``predictions`` (empty: no test record is simulated yet), ``fit_time``,
         ``n_epochs``, ``params``, ``warnings``, ``validation_rmse``,
         ``selection`` and ``validation_runs`` (the chosen candidate's free runs
-        over the validation tails).
+        over the held-out blocks of each fold).
     """
     ctx = replace(ctx, sink=sink, label=name)
     with warnings.catch_warnings(record=True) as caught, interrupts_raise():

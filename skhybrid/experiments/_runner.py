@@ -24,7 +24,7 @@ from skhybrid.experiments._zoo import model_zoo
 
 __all__ = ["ExperimentResult", "run_experiment"]
 
-#: Prefix of a measured model's stored free runs over its validation tails.
+#: Prefix of a measured model's stored out-of-fold free runs.
 VALIDATION = "validation/"
 
 logger = logging.getLogger(__name__)
@@ -288,7 +288,7 @@ def run_experiment(
     A paper system (section 6) is simulated and its zoo scored on interpolative
     and extrapolative test sets. A measured system's estimation records are
     loaded (a built-in benchmark's from ``data``) and its zoo fitted, every
-    candidate chosen on the records' validation tails; no test record is read
+    candidate chosen by blocked cross-validation of the records; no test record is read
     here: :func:`~skhybrid.experiments.run_system` seals the selections of its
     seeds first, then scores the test records. Models that need another's fit
     (the measured physics' corrections) run after it.
@@ -466,7 +466,7 @@ def _record(result, name, out, folder):
         "n_epochs": out["n_epochs"],
         "warnings": out["warnings"],
     }
-    # A measured model's choice on the validation tail.
+    # A measured model's choice by cross-validation.
     for key in ("validation_rmse", "selection"):
         if key in out:
             fit[key] = out[key]
@@ -476,7 +476,7 @@ def _record(result, name, out, folder):
     }
     stored = dict(predictions)
     if out.get("validation_runs") is not None:
-        # A measured model's free runs over the validation tails: the
+        # A measured model's out-of-fold free runs: the
         # stochastic part of the report reads them, and a resume restores them.
         runs = [np.asarray(run, dtype=float) for run in out["validation_runs"]]
         result.validation_runs[name] = runs

@@ -325,6 +325,22 @@ def _spread(values):
     }
 
 
+def _cv_rmse(result):
+    """Each model's CV RMSE at one seed: its chosen candidate's mean, std, folds."""
+    out = {}
+    for name, fit in result.fits.items():
+        selection = fit.get("selection") or {}
+        if "cv_rmse_chosen_by_fold" not in selection:
+            continue
+        out[name] = {
+            "mean": fit["validation_rmse"],
+            "std": selection["cv_rmse_std"],
+            "by_fold": selection["cv_rmse_chosen_by_fold"],
+            "folds": selection["cv_folds"],
+        }
+    return out
+
+
 class MeasuredRun:
     """A measured system's run over its seeds: selections, seal and test scores.
 
@@ -421,8 +437,10 @@ class MeasuredRun:
             test RMSE over seeds, validation RMSE by seed, the published
             figures, the physics' parameters by seed, the chosen model's
             stochastic part by seed (residual tests, noise model, band) and
-            its band's coverage of each test record over seeds, wall time and
-            rows.
+            its band's coverage of each test record over seeds, every model's
+            CV RMSE by seed (mean, std and by fold), the chosen model's test /
+            CV ratio over seeds, the models that cannot vary with the seed,
+            wall time and rows.
         """
         by_model, chosen = self.test_summary()
         first = self.results[0]
@@ -459,6 +477,24 @@ class MeasuredRun:
                 for r in self.results
             },
             "hull": first.hull,
+            "cv_rmse": {str(r.settings.seed): _cv_rmse(r) for r in self.results},
+            "chosen_test_over_cv": {
+                split: _spread(
+                    [
+                        r.test_rmse(split, r.selected_model())
+                        / r.validation_rmse()[r.selected_model()]
+                        if r.selected_model() is not None
+                        else np.nan
+                        for r in self.results
+                    ]
+                )
+                for split in self.test_splits
+            },
+            "deterministic": sorted(
+                name
+                for name, fit in first.fits.items()
+                if (fit.get("selection") or {}).get("deterministic")
+            ),
             "stochastic": {str(r.settings.seed): r.stochastic for r in self.results},
             "band_coverage": {
                 split: _spread(

@@ -3,8 +3,8 @@
 A user's machine and the built-in benchmarks take the same path: a spec names
 the estimation records, the sample period, the initialisation window, the
 physics and (optionally) the test records; :func:`~skhybrid.experiments.run_system`
-fits the default candidate family on it, chooses on validation tails of the
-estimation records, seals the selection and only then simulates the test
+fits the default candidate family on it, chooses by blocked cross-validation of
+the estimation records, seals the selection and only then simulates the test
 records.
 """
 
@@ -292,8 +292,10 @@ class SystemSpec:
     NARX as black-box baselines, the physics with a linear and a dense static
     correction and with the mean of three dense corrections, and state-space
     hybrids over a small horizon grid. Every choice
-    (segment length, windows, horizon, the model quoted) is made on the last
-    25 % of each estimation record, the selection is sealed (written with its
+    (segment length, windows, horizon, the model quoted) is made by blocked
+    cross-validation of the estimation records
+    (:class:`~skhybrid.model_selection.SimulationSearchCV`), the selection is
+    sealed (written with its
     hash), and only then are the test records read and simulated.
 
     Parameters
@@ -581,12 +583,15 @@ class SystemSpec:
         )
         self._dt = self._check_dt(dts)
         shortest = min(len(u) for u in U)
-        # A tail of 25 % must hold its own window and some samples to score.
-        if shortest < 8 * self.n_init:
+        longest = max(len(u) for u in U)
+        # A held-out block holds its own window and some samples to score
+        # (RecordBlockSplit: at least 8 n_init), and some record two blocks.
+        if shortest < 8 * self.n_init or longest < 16 * self.n_init:
             raise ValueError(
                 f"every estimation record needs at least 8 * n_init = "
-                f"{8 * self.n_init} samples (a validation tail of 25 % holds "
-                f"n_init and more); the shortest holds {shortest}."
+                f"{8 * self.n_init} samples, and the longest 16 * n_init = "
+                f"{16 * self.n_init} (the folds hold out blocks of at least "
+                f"8 * n_init); the records hold {sorted(len(u) for u in U)}."
             )
         if self.tests is not None and not callable(self.tests):
             # Test records given as data are checked with the estimation records,

@@ -177,6 +177,24 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     coverage = summary["band_coverage"]["test"]
     assert len(coverage["by_seed"]) == 3 and 0 <= coverage["mean"] <= 1
 
+    # Every model's CV RMSE by fold at every seed, the mean the choice used, and
+    # what the chosen model's test is against it.
+    for seed, cv in summary["cv_rmse"].items():
+        assert set(cv) == models
+        for name, entry in cv.items():
+            assert entry["mean"] == pytest.approx(np.mean(entry["by_fold"]))
+            assert entry["mean"] == pytest.approx(
+                summary["validation_rmse"][seed][name]
+            )
+        best = summary["chosen_model"][seed]
+        assert best == min(cv, key=lambda m: cv[m]["mean"])
+        ratio = summary["chosen_test_over_cv"]["test"]["by_seed"][int(seed)]
+        test = summary["chosen_test_rmse"]["test"]["by_seed"][int(seed)]
+        assert ratio == pytest.approx(test / cv[best]["mean"])
+    assert {"physics", "linear ARX", "physics + linear"} <= set(
+        summary["deterministic"]
+    )
+
     # The report speaks of this machine and this run, not of benchmarks or seed 0.
     page = (out / "report.html").read_text()
     assert "<title>skhybrid: toy-machine</title>" in page
@@ -187,6 +205,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     assert "k = " in page and "&plusmn;" in page.split("Physics parameters")[1]
     assert "dt = " not in page.split("Physics parameters")[1]
     assert "The stochastic part of the chosen model" in page
+    assert "(deterministic)" in page and "test / CV" in page
     assert "band coverage" in page
 
 

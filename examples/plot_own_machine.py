@@ -165,7 +165,10 @@ for name in ("k", "c", "fc"):
 # Every fitted model lands in ``models/<name>-seed-<seed>/`` of the run folder.
 # :func:`~skhybrid.experiments.load_fitted` loads seed 0's chosen model (and,
 # by name, the physics alone); simulate each from the test record's first
-# ``n_init`` measured samples, as the run scored it.
+# ``n_init`` measured samples, as the run scored it. The equations are written
+# in this script (``__main__``): the run folder stores them by value with the
+# models, so ``load_fitted(out)`` works as well in a new session that never
+# defined ``spring_damper``.
 name = results["chosen_model"]["0"]
 model = load_fitted(out, seed=0)
 physics_alone = load_fitted(out, seed=0, model="physics")
@@ -200,9 +203,8 @@ plt.show()
 # %%
 # The same run from the shell
 # ---------------------------
-# Put the records, the physics and ``spec = SystemSpec(...)`` in a module,
-# ``my_machine.py`` say (the equations at module level, so that the fitted
-# models pickle), and run::
+# Put the records, the physics and ``spec = SystemSpec(...)`` in a module the
+# command can import, ``my_machine.py`` say, and run::
 #
 #     skhybrid run --system my_machine:spec --out runs/my-machine --seeds 0 1 2
 #

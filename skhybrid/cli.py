@@ -584,9 +584,7 @@ class _Plan:
         from skhybrid.experiments._sealed import record_digests
 
         args = self.args
-        return record_digests(
-            self.system, self.seeds, quick=args.quick, data=args.data
-        )
+        return record_digests(self.system, self.seeds, quick=args.quick, data=args.data)
 
     def fit(self, folder, n_jobs):
         args = self.args

@@ -291,6 +291,50 @@ class RunFolder:
             The folder holds a run this one must not touch, or fitted on other
             records, or a stored file is damaged; nothing was changed.
         """
+        replace = self.check(identity, overwrite=overwrite, resume=resume)
+        if not replace:
+            for system, digest in (records or {}).items():
+                self.check_records(system, digest, write=False)
+            self.verify()
+        if replace:
+            self._set_aside()
+        n_finished = self.n_finished()
+        self.write_manifest(
+            {
+                "format": RUN_FORMAT,
+                "status": "running",
+                "command": command,
+                "identity": identity,
+            }
+        )
+        return n_finished
+
+    def check(self, identity, *, overwrite=False, resume=False):
+        """Whether the folder's run may be carried on or replaced; change nothing.
+
+        Called by :meth:`start`, and before a run reads its records, so that a
+        folder that must not be touched is refused first.
+
+        Parameters
+        ----------
+        identity : dict
+            What makes two runs the same (systems, seed, settings).
+        overwrite : bool, default=False
+            Replace a previous run.
+        resume : bool, default=False
+            Also accept a finished run of the same identity.
+
+        Returns
+        -------
+        replace : bool
+            Whether what the folder holds is replaced (set aside by
+            :meth:`start`); False: it is carried on.
+
+        Raises
+        ------
+        RunFolderError
+            The folder holds a run this one must not touch.
+        """
         if overwrite and resume:
             raise RunFolderError(
                 "--overwrite replaces the run in the folder and --resume carries it "
@@ -333,22 +377,7 @@ class RunFolder:
                     f"(`{manifest.get('command')}`); resume it with that command, "
                     "pass --overwrite to replace it, or choose another --out"
                 )
-        if not replace:
-            for system, digest in (records or {}).items():
-                self.check_records(system, digest, write=False)
-            self.verify()
-        if replace:
-            self._set_aside()
-        n_finished = self.n_finished()
-        self.write_manifest(
-            {
-                "format": RUN_FORMAT,
-                "status": "running",
-                "command": command,
-                "identity": identity,
-            }
-        )
-        return n_finished
+        return replace
 
     def _set_aside(self):
         """Move what a previous run wrote into :data:`REPLACED` (not yet deleted)."""
@@ -610,7 +639,6 @@ class RunFolder:
         record = dict(record, model=name, predictions=f"{stem}.npz")
         checksums = {}
         if estimator is not None:
-
             _write_atomic(folder / f"{stem}.joblib", partial(_dump, estimator))
             record["estimator"] = f"{stem}.joblib"
             checksums[f"{stem}.joblib"] = _sha256(folder / f"{stem}.joblib")

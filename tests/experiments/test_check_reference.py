@@ -1,16 +1,16 @@
-"""The reference check runs each benchmark on its recorded CPU kernels."""
+"""The reference check reruns the selection only, never reading a test record."""
 
 import json
 
 
-def test_every_reference_names_the_kernels_it_was_recorded_with(benchmark_script):
+def test_every_benchmark_has_the_kernels_of_its_record(benchmark_script):
     check = benchmark_script("check_measured_reference.py")
-    assert set(check.KERNELS) == set(check.REFERENCE)
+    assert set(check.REFERENCE) <= set(check.KERNELS)
     for kernels in check.KERNELS.values():
         assert set(kernels) == {"ATEN_CPU_CAPABILITY", "OPENBLAS_CORETYPE"}
 
 
-def test_the_run_gets_the_kernels_and_a_finished_run_is_reused(
+def test_the_run_is_selection_only_with_the_kernels_and_reused_when_finished(
     benchmark_script, monkeypatch, tmp_path
 ):
     check = benchmark_script("check_measured_reference.py")
@@ -21,9 +21,44 @@ def test_the_run_gets_the_kernels_and_a_finished_run_is_reused(
     kernels = {"ATEN_CPU_CAPABILITY": "avx2", "OPENBLAS_CORETYPE": "Zen"}
     check.run("emps", "data", tmp_path, kernels)
     ((argv, env),) = calls
-    assert argv[4:6] == ["emps", "--data"]
+    # The spec's tests are dropped before the run: no test record is read.
+    assert "tests=None" in argv[2] and argv[3:5] == ["emps", "data"]
     assert env["ATEN_CPU_CAPABILITY"] == "avx2" and env["OPENBLAS_CORETYPE"] == "Zen"
     (tmp_path / "emps").mkdir()
     (tmp_path / "emps" / "run.json").write_text(json.dumps({"status": "complete"}))
     check.run("emps", "data", tmp_path, kernels)
     assert len(calls) == 1
+
+
+def test_it_compares_the_choice_the_cv_figures_and_the_seal(benchmark_script):
+    check = benchmark_script("check_measured_reference.py")
+    record = {
+        "chosen": {"0": "physics", "1": "physics"},
+        "cv_rmse": {"0": 1.00, "1": 1.10},
+        "selection_sha256": "a" * 64,
+    }
+    lines, failed = check.compare(
+        "emps",
+        record,
+        {"0": "physics", "1": "physics"},
+        {"0": 1.02, "1": 1.1},
+        "a" * 64,
+    )
+    assert failed == 0 and len(lines) == 3
+    lines, failed = check.compare(
+        "emps", record, {"0": "physics", "1": "ARX"}, {"0": 1.3, "1": 1.1}, "b" * 64
+    )
+    assert failed == 3  # the choice, seed 0's CV figure and the seal
+    # With the machine's own kernels the seal is not compared.
+    assert (
+        check.compare(
+            "emps", record, record["chosen"], record["cv_rmse"], "b" * 64, native=True
+        )[1]
+        == 0
+    )
+
+
+def test_a_benchmark_without_a_record_says_so(benchmark_script, capsys):
+    check = benchmark_script("check_measured_reference.py")
+    assert check.main(["--data", "anywhere", "--only", "emps"]) == 0
+    assert "emps: no release run recorded yet" in capsys.readouterr().out

@@ -26,9 +26,10 @@ import numpy as np
 
 import skhybrid
 from skhybrid.experiments._measured_system import MeasuredSystem
+from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.experiments._report import write_report
-from skhybrid.experiments._sealed import record_digests, run_seeds
+from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
 from skhybrid.experiments._store import RunFolder
 
 __all__ = [
@@ -127,12 +128,20 @@ def measured_identity(system, quick, seeds):
     Returns
     -------
     identity : dict
-        The version, the system, ``quick``, the seeds and the settings.
+        The version and commit, the CPU kernels, the system (a user's spec by
+        its digest, a built-in benchmark by its module), ``quick``, the seeds
+        and the settings: a resume never reuses models fitted under another
+        commit, other kernels or another spec.
     """
     settings = system.default_settings(quick, seeds[0])
+    code = provenance()
+    module = system.builtin_module
     return {
         "skhybrid": skhybrid.__version__,
+        "commit": code["commit"],
+        "kernels": code["kernels"],
         "systems": [system.name],
+        "spec": module.__name__ if module is not None else spec_digest(system.spec),
         "quick": bool(quick),
         "seeds": list(seeds),
         "settings": settings.to_dict(),

@@ -179,6 +179,11 @@ class MeasuredSystem:
         return module.make_spec(data, quick=quick)
 
     @property
+    def builtin_module(self):
+        """The built-in benchmark's module of the catalogue, or None."""
+        return self._module
+
+    @property
     def spec(self):
         """The spec the system is bound to (after :meth:`new_result`)."""
         if self._spec is None:

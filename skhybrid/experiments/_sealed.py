@@ -20,6 +20,7 @@ import numpy as np
 
 from skhybrid.experiments._measured_report import hull_exit
 from skhybrid.experiments._measured_zoo import simulate_records
+from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._stochastic import (
@@ -37,6 +38,7 @@ __all__ = [
     "run_seeds",
     "score_tests",
     "seal",
+    "spec_digest",
 ]
 
 
@@ -71,6 +73,38 @@ def describe_spec(spec, U, Y=None):
         "hybrid_records": spec.hybrid_records,
         "notes": spec.notes,
     }
+
+
+def spec_digest(spec):
+    """SHA-256 of what a spec says before its records are read.
+
+    The physics, its inputs, the candidates, ``n_init``, ``dt`` and the notes,
+    described without memory addresses (:func:`describe_spec` without the
+    records): the same spec gives the same digest in every session.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The system.
+
+    Returns
+    -------
+    digest : str
+        Hex digest.
+    """
+    fields = {
+        "name": spec.name,
+        "dt": spec.dt,
+        "n_init": spec.n_init,
+        "physics": _describe(spec.physics),
+        "physics_inputs": _describe(spec.physics_inputs),
+        "physics_starts": _describe(spec.physics_starts),
+        "segments": _describe(spec.segments),
+        "hybrids": _describe(spec.hybrids),
+        "hybrid_records": spec.hybrid_records,
+        "notes": spec.notes,
+    }
+    return hashlib.sha256(_canonical(fields).encode()).hexdigest()
 
 
 def _qualified_name(obj):
@@ -137,6 +171,8 @@ def seal(results, folder_path):
     selection = {
         "system": describe_spec(system.spec, *results[0].train),
         "seeds": [r.selection() for r in results],
+        # The code and CPU kernels the selection was made with.
+        "provenance": provenance(),
     }
     digest = hashlib.sha256(_canonical(selection).encode()).hexdigest()
     sealed = {"sha256": digest, "selection": selection}

@@ -424,6 +424,19 @@ def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
     # The free runs on the test records are kept beside the models.
     with np.load(out / "models" / "toy-machine-seed-0" / "test-predictions.npz") as f:
         assert "test/physics" in f.files and f["test/physics"].shape == (400,)
+    # The seal and the run's identity name the code and the CPU kernels; the
+    # identity names the spec, so another physics is not resumed either.
+    code = sealed["provenance"]
+    assert code["skhybrid"] and code["kernels"]["torch"]
+    identity = json.loads((out / "run.json").read_text())["identity"]
+    assert identity["commit"] == code["commit"]
+    assert identity["kernels"] == code["kernels"] and len(identity["spec"]) == 64
+    other = machine.make_spec(
+        out=out, hybrids=None, physics=machine.physics().set_params(n_init=12)
+    )
+    with pytest.raises(RunFolderError, match="finished run") as info:
+        run_system(other, out, quick=True, seeds=[0], resume=True)
+    assert "--resume" not in str(info.value)  # not the same run: nothing to resume
 
 
 def test_a_physics_that_cannot_be_stored_is_refused_before_any_fit(machine, tmp_path):

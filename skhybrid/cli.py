@@ -36,7 +36,7 @@ examples:
   skhybrid list                          the systems you can run
   skhybrid run pendulum --quick          a small run, about a minute on 2 cores
   skhybrid run pendulum --out results    the full pendulum run (under 10 minutes)
-  skhybrid run all --n-jobs 2 --seed 1   every system, two models at a time
+  skhybrid run all --n-jobs 2 --seeds 1  every system, two models at a time
   skhybrid run pendulum --resume         finish an interrupted run, same report
   skhybrid run all --dask HOST:8786      fit the models on a Dask cluster
   skhybrid run emps --data ../shared/data --quick
@@ -174,22 +174,17 @@ def _build_parser():
         help="models fitted in parallel; -1 uses every core (default: 2)",
     )
     run.add_argument(
-        "--seed",
-        type=_seed,
-        default=None,
-        metavar="S",
-        help="seed of data and models, 0 to 2**32 - 1 (default: 0); a measured "
-        "run with --seed S selects at that one seed",
-    )
-    run.add_argument(
         "--seeds",
         type=_seed,
         nargs="+",
         default=None,
         metavar="S",
-        help="a measured run's seeds, each a full selection; the report gives "
-        "the mean and spread over them (default: 0 1 2)",
+        help="seeds, 0 to 2**32 - 1: a measured run makes a full selection at "
+        "each and reports the mean and spread over them (default: 0 1 2); a "
+        "simulated system runs one, the seed of its data and models (default: 0)",
     )
+    # The former one-seed option, kept working: --seed S is --seeds S.
+    run.add_argument("--seed", type=_seed, default=None, help=argparse.SUPPRESS)
     run.add_argument(
         "--noise-type",
         choices=["measurement", "process"],
@@ -463,13 +458,16 @@ def _check_run_args(args):
         return (
             "--data names a built-in benchmark's files; a --system spec holds its own"
         )
-    if not measured and args.seeds is not None:
-        return (
-            f"--seeds sets a measured run's seeds; {args.system} is simulated: use "
-            "--seed S"
-        )
     if args.seed is not None and args.seeds is not None:
-        return "give --seed S (one seed) or --seeds S [S ...], not both"
+        return "give --seeds S [S ...] once (--seed S is the same option)"
+    if args.seed is not None:
+        args.seeds = [args.seed]
+    if not measured and args.seeds is not None and len(args.seeds) > 1:
+        return (
+            f"{args.system} is simulated and runs one seed; got --seeds "
+            + " ".join(map(str, args.seeds))
+            + " (a measured run makes a selection at each of several)"
+        )
     return None
 
 
@@ -545,10 +543,7 @@ class _Plan:
                 measured_identity,
             )
 
-            if args.seeds is not None:
-                seeds = args.seeds
-            else:
-                seeds = DEFAULT_SEEDS if args.seed is None else [args.seed]
+            seeds = DEFAULT_SEEDS if args.seeds is None else args.seeds
             try:
                 self.seeds = check_seeds(seeds)
             except ValueError as exc:
@@ -558,7 +553,7 @@ class _Plan:
             zoo = self.system.model_zoo(self.system.default_settings(args.quick, 0))
             self.n_models = len(zoo) * len(self.seeds)
         else:
-            seed = 0 if args.seed is None else args.seed
+            seed = 0 if args.seeds is None else args.seeds[0]
             self.seed = seed
             names = list(SIMULATED_SYSTEMS) if args.system == "all" else [args.system]
             self.names = names

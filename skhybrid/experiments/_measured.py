@@ -197,10 +197,10 @@ def run_system(
     *,
     seeds=DEFAULT_SEEDS,
     quick=False,
-    n_jobs=1,
+    n_jobs=2,
     overwrite=False,
     resume=False,
-    progress=False,
+    progress=True,
 ):
     """Fit, choose, seal and score a measured system described by ``spec``.
 
@@ -226,16 +226,19 @@ def run_system(
         selection. An int is one seed (``--seed S``); None the default seeds.
     quick : bool, default=False
         Shorter fits and fewer candidates (a smoke test, not a figure).
-    n_jobs : int, default=1
-        Models fitted in parallel with joblib (-1: all cores).
+    n_jobs : int, default=2
+        Models fitted in parallel with joblib (-1: all cores), as the command
+        line's ``--n-jobs``.
     overwrite : bool, default=False
         Replace a previous run in ``out``: it is moved aside and deleted once
         the new run has started (its records read and checked).
     resume : bool, default=False
         Also accept a finished run of the same settings (its report is written
         again). Not with ``overwrite``.
-    progress : bool, default=False
-        Progress bars on standard error.
+    progress : bool, default=True
+        Progress on standard error, as the command line shows it: bars of the
+        models and epochs in a terminal, a line per finished model elsewhere (a
+        notebook's log, a file); False is silent.
 
     Returns
     -------
@@ -280,7 +283,15 @@ def run_system(
 
 
 def run_measured(
-    name, data, out, *, quick=False, seeds=DEFAULT_SEEDS, n_jobs=1, overwrite=False
+    name,
+    data,
+    out,
+    *,
+    quick=False,
+    seeds=DEFAULT_SEEDS,
+    n_jobs=2,
+    overwrite=False,
+    progress=True,
 ):
     """Run a built-in measured benchmark into the run folder ``out``.
 
@@ -304,10 +315,13 @@ def run_measured(
     seeds : int, sequence of int or None, default=(0, 1, 2)
         Seeds of the networks; each is a full selection (an int is one seed,
         None the default seeds).
-    n_jobs : int, default=1
-        Models fitted in parallel with joblib (-1: all cores).
+    n_jobs : int, default=2
+        Models fitted in parallel with joblib (-1: all cores), as ``--n-jobs``.
     overwrite : bool, default=False
         Replace a previous run in ``out``.
+    progress : bool, default=True
+        Progress on standard error (bars in a terminal, a line per finished
+        model elsewhere); False is silent.
 
     Returns
     -------
@@ -333,7 +347,7 @@ def run_measured(
         n_jobs=n_jobs,
         overwrite=overwrite,
         resume=False,
-        progress=False,
+        progress=progress,
     )
 
 

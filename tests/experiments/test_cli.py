@@ -71,6 +71,20 @@ def test_bad_arguments_exit_2_with_one_line(capsys, argv, reason):
     assert reason in err
 
 
+@pytest.mark.parametrize(
+    "argv, reason",
+    [
+        (["run", "pendulum", "--seeds", "1", "2"], "simulated and runs one seed"),
+        (["run", "emps", "--seed", "1", "--seeds", "2"], "--seed S is the same"),
+    ],
+)
+def test_one_seed_option(capsys, tmp_path, argv, reason):
+    # --seeds is the one option; --seed S still works, as --seeds S.
+    assert main([*argv, "--out", str(tmp_path / "r")]) == 2
+    assert reason in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     import matplotlib

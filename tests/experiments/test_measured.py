@@ -287,7 +287,9 @@ def test_silverbox_quick_run(shared_data_dir, tmp_path):
     """The Duffing physics beats the published linear model; hybrids are chosen
     on the validation tail only."""
     out = tmp_path / "silverbox"
-    results = run_measured("silverbox", shared_data_dir, out, quick=True, seeds=[0])
+    results = run_measured(
+        "silverbox", shared_data_dir, out, quick=True, seeds=[0], n_jobs=1
+    )
     rmse = results["test_rmse"]
     assert rmse["test_multisine"]["physics"]["mean"] < 6.96
     fits = results["fits"]["0"]

@@ -516,7 +516,7 @@ def test_run_measured_writes_a_folder_the_command_carries_on(tmp_path, axis, cap
     from skhybrid.experiments import run_measured
 
     out = tmp_path / "run"
-    summary = run_measured("emps", tmp_path, out, quick=True, seeds=[0])
+    summary = run_measured("emps", tmp_path, out, quick=True, seeds=[0], n_jobs=1)
     assert summary["chosen_model"]["0"] in TINY
     assert _finished(out) == TINY
     # The command sees the same run: --resume rewrites its report.

@@ -75,7 +75,7 @@ def _files(folder):
 def finished(tmp_path_factory):
     """A finished tiny run (one seed); tests copy it before changing it."""
     out = tmp_path_factory.mktemp("finished") / "run"
-    run_system(make_spec(), out, quick=True, seeds=[0])
+    run_system(make_spec(), out, quick=True, seeds=[0], n_jobs=1)
     return out
 
 
@@ -129,7 +129,7 @@ SCRIPT = textwrap.dedent(
             tests={"test": record(200, 2)},
             hybrids=None,
         )
-        summary = run_system(spec, sys.argv[1], quick=True, seeds=0)
+        summary = run_system(spec, sys.argv[1], quick=True, seeds=0, n_jobs=1)
         print(summary["selection_sha256"])
     """
 )
@@ -220,7 +220,7 @@ def test_overwrite_refused_by_bad_records_keeps_the_finished_run(run, tmp_path):
     y[10] = np.nan
     bad = make_spec(records=lambda: [(u, y)])
     with pytest.raises(ValueError, match=r"records\[0\] holds NaN"):
-        run_system(bad, run, quick=True, seeds=[0], overwrite=True)
+        run_system(bad, run, quick=True, seeds=[0], overwrite=True, n_jobs=1)
     assert _files(run) == before
 
 
@@ -250,11 +250,11 @@ def test_a_refused_resume_leaves_run_json_as_it_was(run):
     before = _files(run)
     changed = make_spec(records=[record(300, 5), record(240, 6)])
     with pytest.raises(RunFolderError, match="fitted on other records"):
-        run_system(changed, run, quick=True, seeds=[0], resume=True)
+        run_system(changed, run, quick=True, seeds=[0], resume=True, n_jobs=1)
     assert _files(run) == before
     # The finished run is still guarded.
     with pytest.raises(RunFolderError, match="already holds a finished run"):
-        run_system(make_spec(), run, quick=True, seeds=[0])
+        run_system(make_spec(), run, quick=True, seeds=[0], n_jobs=1)
 
 
 def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkeypatch):
@@ -277,7 +277,7 @@ def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkey
     monkeypatch.setattr(RunFolder, "discard_replaced", watch)
     monkeypatch.setattr(_measured, "run_seeds", stop)
     with pytest.raises(KeyboardInterrupt):
-        run_system(make_spec(), run, quick=True, seeds=[0], overwrite=True)
+        run_system(make_spec(), run, quick=True, seeds=[0], overwrite=True, n_jobs=1)
     assert {"models", "run.json", "selection.json", "results.json"} <= set(
         seen["aside"]
     )
@@ -296,7 +296,7 @@ def test_run_json_ends_failed_after_an_error_in_python(tmp_path, monkeypatch):
 
     monkeypatch.setattr(_measured, "run_seeds", fail)
     with pytest.raises(RuntimeError, match="a fit broke"):
-        run_system(make_spec(), tmp_path / "run", quick=True, seeds=[0])
+        run_system(make_spec(), tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     manifest = json.loads((tmp_path / "run" / "run.json").read_text())
     assert manifest["status"] == "failed"
     assert manifest["reason"] == "RuntimeError: a fit broke"
@@ -307,7 +307,7 @@ def test_a_bad_callable_test_record_is_named_and_the_run_marked_failed(tmp_path)
     u, y = record(200, 2)
     spec = make_spec(tests=lambda: {"test": (np.hstack([u, u]), y)})
     with pytest.raises(ValueError, match=r"tests\['test'\] has inputs of shape"):
-        run_system(spec, tmp_path / "run", quick=True, seeds=[0])
+        run_system(spec, tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     manifest = json.loads((tmp_path / "run" / "run.json").read_text())
     assert manifest["status"] == "failed"
 
@@ -338,7 +338,7 @@ def test_a_damaged_model_is_named_on_load_and_on_resume(run):
     assert "--overwrite" in message
     before = _files(run)
     with pytest.raises(RunFolderError, match=r"physics\.joblib is damaged"):
-        run_system(make_spec(), run, quick=True, seeds=[0], resume=True)
+        run_system(make_spec(), run, quick=True, seeds=[0], resume=True, n_jobs=1)
     assert _files(run) == before
     path.unlink()
     with pytest.raises(RunFolderError, match=r"physics\.joblib is missing"):
@@ -381,5 +381,5 @@ def test_an_int_is_one_seed_and_none_the_default_seeds(
         seen.update(kwargs)
 
     monkeypatch.setattr(_measured, "_run_folder", capture)
-    run_system(make_spec(), tmp_path / "run", seeds=seeds)
+    run_system(make_spec(), tmp_path / "run", seeds=seeds, n_jobs=1)
     assert seen["seeds"] == expected

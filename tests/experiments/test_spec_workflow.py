@@ -123,7 +123,7 @@ def _canonical_hash(selection):
 def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
     out = tmp_path / "run"
     spec = machine.make_spec(out=out)
-    summary = run_system(spec, out, quick=True)
+    summary = run_system(spec, out, quick=True, n_jobs=1)
 
     # The test records were read once, after selection.json was written.
     assert machine.TEST_READS == [True]
@@ -219,7 +219,9 @@ def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, caps
     cli = json.loads((tmp_path / "out" / "results.json").read_text())["systems"]
     cli = cli["toy-machine"]
 
-    summary = run_system(machine.make_spec(out="py"), "py", quick=True, seeds=[0])
+    summary = run_system(
+        machine.make_spec(out="py"), "py", quick=True, seeds=[0], n_jobs=1
+    )
     assert summary["selection_sha256"] == cli["selection_sha256"]
     for model, spread in summary["test_rmse"]["test"].items():
         assert cli["test_rmse"]["test"][model]["mean"] == pytest.approx(
@@ -357,7 +359,7 @@ def test_the_original_protocol_starts_from_the_estimation_records_state(
     spec = machine.make_spec(
         out=tmp_path / "run", hybrids=None, score_from_estimation_start=True
     )
-    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0])
+    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     scores = summary["test_rmse"]["test_original_protocol"]
     # Defined for the physics and its corrections; not for the black boxes.
     assert np.isfinite(scores["physics"]["mean"])
@@ -391,7 +393,7 @@ def test_the_original_protocol_runs_the_state_space_hybrid_from_that_state(
     from skhybrid.experiments._sealed import _from_estimation_start
 
     spec = machine.make_spec(out=tmp_path / "run", score_from_estimation_start=True)
-    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0])
+    summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     scores = summary["test_rmse"]["test_original_protocol"]
     assert np.isfinite(scores["state-space hybrid"]["mean"])
     # The corrected model's run from the physics' state at the estimation
@@ -410,7 +412,7 @@ def test_the_original_protocol_runs_the_state_space_hybrid_from_that_state(
 def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
     out = tmp_path / "run"
     spec = machine.make_spec(out=out, hybrids=None)
-    run_system(spec, out, quick=True, seeds=[0])
+    run_system(spec, out, quick=True, seeds=[0], n_jobs=1)
     # The same folder, the same settings, other records of the same lengths.
     changed = machine.make_spec(
         out=out, hybrids=None, records=[machine.record(600, 5), machine.record(440, 6)]
@@ -418,7 +420,7 @@ def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
     from skhybrid.experiments._store import RunFolderError
 
     with pytest.raises(RunFolderError, match="fitted on other records"):
-        run_system(changed, out, quick=True, seeds=[0], resume=True)
+        run_system(changed, out, quick=True, seeds=[0], resume=True, n_jobs=1)
     sealed = json.loads((out / "selection.json").read_text())["selection"]
     assert len(sealed["system"]["records_sha256"]) == 64
     # The free runs on the test records are kept beside the models.
@@ -435,7 +437,7 @@ def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
         out=out, hybrids=None, physics=machine.physics().set_params(n_init=12)
     )
     with pytest.raises(RunFolderError, match="finished run") as info:
-        run_system(other, out, quick=True, seeds=[0], resume=True)
+        run_system(other, out, quick=True, seeds=[0], resume=True, n_jobs=1)
     assert "--resume" not in str(info.value)  # not the same run: nothing to resume
 
 
@@ -450,7 +452,9 @@ def test_a_physics_that_cannot_be_stored_is_refused_before_any_fit(machine, tmp_
 
     physics = machine.physics().set_params(rhs=rhs)
     with pytest.raises(TypeError, match=r"spec\.physics cannot be pickled"):
-        run_system(machine.make_spec(physics=physics), tmp_path / "run", quick=True)
+        run_system(
+            machine.make_spec(physics=physics), tmp_path / "run", quick=True, n_jobs=1
+        )
     assert not (tmp_path / "run").exists()
 
 
@@ -458,7 +462,9 @@ def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
     from skhybrid.experiments import load_fitted
 
     out = tmp_path / "run"
-    summary = run_system(machine.make_spec(out=out), out, quick=True, seeds=[0, 1])
+    summary = run_system(
+        machine.make_spec(out=out), out, quick=True, seeds=[0, 1], n_jobs=1
+    )
     u, y = machine.record(400, 7)
     for seed in (0, 1):
         chosen = load_fitted(out, seed=seed)
@@ -535,7 +541,7 @@ def test_the_starts_run_in_every_fit_of_the_physics(machine, tmp_path):
     out = tmp_path / "run"
     starts = [{"k": 0.05, "c": 3.0}, {"k": 1.5, "c": 0.4}]
     spec = machine.make_spec(out=out, physics_starts=starts, hybrids=None)
-    run_system(spec, out, quick=True, seeds=[0])
+    run_system(spec, out, quick=True, seeds=[0], n_jobs=1)
     refit = joblib.load(out / "models" / "toy-machine-seed-0" / "physics.joblib")
     # Each fold's fit and the refit on the whole records start from the spec's
     # starts alike (the first as params, the others as starts): no fit
@@ -550,7 +556,7 @@ def test_a_black_box_machine_runs_from_its_best_linear_approximation(machine, tm
     out = tmp_path / "run"
     spec = machine.make_spec(out=out, physics=machine.linear_physics)
     assert spec.has_hybrids()
-    summary = run_system(spec, out, quick=True, seeds=[0])
+    summary = run_system(spec, out, quick=True, seeds=[0], n_jobs=1)
     validation = summary["validation_rmse"]["0"]
     assert np.isfinite(validation["state-space hybrid"])
     assert np.isfinite(validation["physics"])
@@ -605,7 +611,7 @@ def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
     monkeypatch.setattr(_measured_zoo, "_fit_physics", counting)
     out = tmp_path / "run"
     spec = machine.make_spec(out=out, hybrids=None, segments=(None, 100))
-    summary = run_system(spec, out, quick=True, seeds=[0, 1])
+    summary = run_system(spec, out, quick=True, seeds=[0, 1], n_jobs=1)
     # Two seeds, and three models built on the physics: still each segment
     # candidate fitted once on each fold's pieces, and the chosen one once on
     # the whole records.
@@ -614,3 +620,14 @@ def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
     assert summary["chosen_model"]["0"] == min(
         summary["validation_rmse"]["0"], key=summary["validation_rmse"]["0"].get
     )
+
+
+def test_run_system_shows_progress_by_default(machine, tmp_path, capsys):
+    out = tmp_path / "run"
+    run_system(
+        machine.make_spec(out=out, hybrids=None), out, quick=True, seeds=[0], n_jobs=1
+    )
+    err = capsys.readouterr().err
+    # Not a terminal here: a line per finished model, as the command line shows.
+    for model in ("physics", "linear ARX", "physics + dense ensemble"):
+        assert model in err

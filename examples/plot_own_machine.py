@@ -5,8 +5,8 @@ Model your own machine
 From measured records to a chosen, simulated and reported model, through the
 public workflow: a :class:`~skhybrid.experiments.SystemSpec` describes the
 machine once, :func:`~skhybrid.experiments.run_system` fits the default
-candidate family, chooses on validation tails of the estimation records, seals
-the selection and only then simulates the test record.
+candidate family, chooses by blocked cross-validation of the estimation
+records, seals the selection and only then simulates the test record.
 
 The machine here is simulated so that the truth is known: a mass on a
 stiffening spring (``k x + k3 x^3``) with viscous and Coulomb-like friction,
@@ -101,7 +101,7 @@ physics = StateSpaceModel(
 # --------------------
 # ``dt`` is read from the DataFrames' time index (it must be uniform); the
 # columns are named by ``inputs`` and ``outputs``. ``n_init=10`` samples (0.5 s)
-# start every free run, on the validation tails and on the test record alike.
+# start every free run, on the held-out blocks and on the test record alike.
 spec = SystemSpec(
     "my-machine",
     records=records,
@@ -119,9 +119,10 @@ print("run folder:", sorted(p.name for p in out.iterdir()))
 # %%
 # The selection, sealed before the test
 # -------------------------------------
-# At each seed every candidate is fitted on the first 75 % of each estimation
-# record and simulated in free run over the last 25 %; the lowest validation
-# RMSE is the model quoted. Every seed's choices are written to
+# At each seed every candidate is fitted on three of four blocks of each
+# estimation record and simulated in free run over the held-out block, each
+# block in turn; the lowest mean RMSE over the folds (the CV RMSE) is the model
+# quoted. Every seed's choices are written to
 # ``selection.json`` with their SHA-256 *before* the test record is read, so
 # the test figure cannot have steered any choice, and anyone holding the folder
 # can check that the figures come from the selection it records. The networks
@@ -138,7 +139,7 @@ assert results["selection_sha256"] == sealed["sha256"] == summary["selection_sha
 
 validation = pd.DataFrame(results["validation_rmse"])
 validation.columns = [f"seed {s}" for s in validation.columns]
-print("\nvalidation RMSE [m] (free run over the last 25 % of each record)")
+print("\nCV RMSE [m] (mean over the folds' held-out blocks, free run)")
 print(validation.round(4).to_string())
 for seed, model in results["chosen_model"].items():
     print(f"chosen at seed {seed}: {model}")

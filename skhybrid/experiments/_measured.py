@@ -135,17 +135,27 @@ def measured_identity(system, quick, seeds):
     """
     settings = system.default_settings(quick, seeds[0])
     code = provenance()
-    module = system.builtin_module
     return {
         "skhybrid": skhybrid.__version__,
         "commit": code["commit"],
         "kernels": code["kernels"],
         "systems": [system.name],
-        "spec": module.__name__ if module is not None else spec_digest(system.spec),
+        "spec": _spec_identity(system),
         "quick": bool(quick),
         "seeds": list(seeds),
         "settings": settings.to_dict(),
     }
+
+
+def _spec_identity(system):
+    """A user's spec by its digest, a built-in benchmark by its module."""
+    module = system.builtin_module
+    if module is not None:
+        return module.__name__
+    try:
+        return spec_digest(system.spec)
+    except AttributeError:  # a system that builds its spec from its files
+        return f"{type(system).__module__}.{type(system).__qualname__}"
 
 
 def _run_folder(
@@ -419,4 +429,11 @@ def load_fitted(out, *, seed=0, model=None, system=None):
         raise ValueError(
             f"model must be one of {sorted(finished)}; got model={model!r}."
         )
-    return folder.load_estimator(key, finished[model])
+    estimator = folder.load_estimator(key, finished[model])
+    if getattr(estimator, "transform", False) is None and hasattr(
+        estimator, "estimator"
+    ):
+        # A physics or state-space hybrid fed the records' own inputs: the
+        # public estimator itself, not the run's wrapper around it.
+        return estimator.estimator
+    return estimator

@@ -365,8 +365,8 @@ class SystemSpec:
         (:class:`~skhybrid.domain.StateSpaceModel`'s several starts): each of
         a segment candidate's fits first fits every start briefly
         (``starts_nfev`` evaluations) on its segments and goes on from the
-        lowest cost, never chosen on a validation or test record; the refit on
-        the whole records continues from the chosen candidate's fit. Needs a
+        lowest cost, never chosen on a held-out or test record; every fold's
+        fit and the refit on the whole records run the starts alike. Needs a
         physics that takes ``starts`` and has none of its own.
     starts_nfev : int, default=15
         Residual evaluations of each start's short fit (the physics'

@@ -475,6 +475,10 @@ def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
         )
     physics = load_fitted(out, seed=1, model="physics")
     assert physics.params_["k"] == pytest.approx(summary["physics_params"]["1"]["k"])
+    # The public estimator itself, not the run's private wrapper.
+    from skhybrid.domain import StateSpaceModel
+
+    assert type(physics) is StateSpaceModel
     with pytest.raises(ValueError, match="seed must be one of the run's seeds"):
         load_fitted(out, seed=5)
     with pytest.raises(ValueError, match="model must be one of"):

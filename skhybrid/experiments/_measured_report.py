@@ -200,8 +200,8 @@ def _stochastic_html(summary, unit):
 <p>What the chosen model leaves: its out-of-fold free-run residuals over the
 held-out blocks of the estimation records (never a test record) are tested for
 whiteness (Ljung-Box) and for correlation with the inputs (missing input
-dynamics), and an autoregressive noise model is fitted to them [{unit}]. Its {100 * level:.0f} % simulation band,
-<code>y_sim + mean &plusmn; z std</code>, is laid on each test record's free run;
+dynamics), and an autoregressive noise model is fitted to them [{unit}]. Its
+{100 * level:.0f} % simulation band, <code>y_sim + mean &plusmn; z std</code>, is laid on each test record's free run;
 its coverage is the share of test samples inside it (nominal {100 * level:.0f} %;
 lower means the residuals on test are larger than on validation). Coverage over
 seeds: {coverage}.</p>

@@ -201,10 +201,10 @@ def _stochastic_html(summary, unit):
 held-out blocks of the estimation records (never a test record) are tested for
 whiteness (Ljung-Box) and for correlation with the inputs (missing input
 dynamics), and an autoregressive noise model is fitted to them [{unit}]. Its
-{100 * level:.0f} % simulation band, <code>y_sim + mean &plusmn; z std</code>, is laid on each test record's free run;
-its coverage is the share of test samples inside it (nominal {100 * level:.0f} %;
-lower means the residuals on test are larger than on validation). Coverage over
-seeds: {coverage}.</p>
+{100 * level:.0f} % simulation band, <code>y_sim + mean &plusmn; z std</code>,
+is laid on each test record's free run; its coverage is the share of test
+samples inside it (nominal {100 * level:.0f} %; lower means the residuals on
+test are larger than on the held-out blocks). Coverage over seeds: {coverage}.</p>
 <table><tr><th>seed</th><th>chosen</th><th>residuals of</th>
 <th>Ljung-Box p</th><th>input correlation p</th><th>noise model</th>
 <th>band coverage</th></tr>

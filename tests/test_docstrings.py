@@ -53,7 +53,7 @@ def _public_names():
                         )
 
 
-@pytest.mark.parametrize("import_path", _public_names())
+@pytest.mark.parametrize("import_path", list(_public_names()))
 def test_docstring(import_path):
     result = numpydoc_validate.validate(import_path)
     errors = [

@@ -729,6 +729,11 @@ class StateSpaceHybridRegressor(
 
         check_is_fitted(self)
         X = validate_data(self, X, reset=False, dtype=np.float64)
+        if not X.flags.writeable:
+            # torch.as_tensor shares the array's memory, and a torch tensor cannot
+            # be read-only: a read-only X (a memmap, a joblib worker's input)
+            # would become a writable tensor over it (torch warns). Copy it.
+            X = X.copy()
         k = self.n_steps
         if self._k != k:
             raise ValueError(

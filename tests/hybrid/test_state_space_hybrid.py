@@ -251,6 +251,36 @@ def test_windows_fit_predict_and_simulate():
     assert records.predict is not None
 
 
+def test_predict_gives_torch_no_read_only_array(monkeypatch):
+    """A read-only X (a memmap) is copied before torch shares its memory.
+
+    torch.as_tensor over a non-writable array makes a writable tensor over
+    read-only memory (torch warns once per process, so the warning itself cannot
+    be asserted here): every array predict hands torch must be writable.
+    """
+    import torch
+
+    u, y = _records()
+    X, target = make_windows(list(y), list(u), n_steps=3)
+    model = StateSpaceHybridRegressor(
+        _physics(), n_steps=3, max_epochs=2, random_state=0
+    ).fit(X, target[:, 0])
+    expected = model.predict(X)
+    as_tensor = torch.as_tensor
+    read_only = []
+
+    def checked(data, *args, **kwargs):
+        if isinstance(data, np.ndarray) and not data.flags.writeable:
+            read_only.append(data.shape)
+        return as_tensor(data, *args, **kwargs)
+
+    monkeypatch.setattr(torch, "as_tensor", checked)
+    X_read_only = X.copy()
+    X_read_only.setflags(write=False)
+    np.testing.assert_array_equal(model.predict(X_read_only), expected)
+    assert read_only == []
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [

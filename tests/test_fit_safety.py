@@ -27,8 +27,19 @@ from skhybrid.preprocessing import make_windows
 from skhybrid.utils._testing import fast_instances, with_states
 from skhybrid.utils._transaction import TransactionalFitMixin
 
+#: FAST_PARAMS stop WienerHammersteinModel's refinement at max_nfev=5 on purpose
+#: (speed), and its fit says so; these tests check what a failed fit leaves, not
+#: convergence.
+_WH_STOPPED_EARLY = pytest.mark.filterwarnings(
+    "ignore:WienerHammersteinModel's refinement stopped at max_nfev"
+    ":sklearn.exceptions.ConvergenceWarning"
+)
+_MARKS = {"WienerHammersteinModel": [_WH_STOPPED_EARLY]}
 ESTIMATORS = [
-    pytest.param(with_states(e, 2), id=type(e).__name__) for e in fast_instances()
+    pytest.param(
+        with_states(e, 2), id=type(e).__name__, marks=_MARKS.get(type(e).__name__, [])
+    )
+    for e in fast_instances()
 ]
 
 

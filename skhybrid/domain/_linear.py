@@ -122,12 +122,14 @@ class LinearStateSpaceModel(DomainModel):
     >>> from skhybrid.domain import LinearStateSpaceModel
     >>> rng = np.random.default_rng(0)
     >>> X = rng.standard_normal((200, 3))          # [x1, x2, u]
-    >>> A = np.array([[0.9, 0.1], [0.0, 0.8]])
-    >>> y = X[:, :2] @ A.T + 0.5 * X[:, 2:]
+    >>> A = np.array([[0.9, 0.1], [-0.2, 0.8]])
+    >>> y = X[:, :2] @ A.T + 0.5 * X[:, 2:] + [0.3, -0.1]
     >>> model = LinearStateSpaceModel().fit(X, y)
     >>> np.round(model.A_, 6)
-    array([[0.9, 0.1],
-           [0. , 0.8]])
+    array([[ 0.9,  0.1],
+           [-0.2,  0.8]])
+    >>> np.round(model.c_, 6)
+    array([ 0.3, -0.1])
     >>> bool(model.is_stable_)
     True
 
@@ -137,12 +139,16 @@ class LinearStateSpaceModel(DomainModel):
     >>> u = rng.standard_normal(300)
     >>> y = np.zeros(300)
     >>> for t in range(2, 300):
-    ...     y[t] = 1.6 * y[t - 1] - 0.9 * y[t - 2] + 0.5 * u[t - 1]
+    ...     y[t] = 1.6 * y[t - 1] - 0.9 * y[t - 2] + 0.5 * u[t - 1] + 0.2 * u[t - 2]
     >>> X, Y = make_windows(y[:, None], u[:, None], n_steps=2)
-    >>> model = LinearStateSpaceModel(order=2, n_steps=2).fit(X, Y)
+    >>> model = LinearStateSpaceModel(order=2, n_steps=2, fit_intercept=False)
+    >>> model = model.fit(X, Y)
     >>> np.round(model.A_, 6)
     array([[ 1.6,  1. ],
            [-0.9,  0. ]])
+    >>> np.round(model.B_, 6)
+    array([[0.5],
+           [0.2]])
     """
 
     _parameter_constraints = {

@@ -29,11 +29,24 @@ def _fitted(rng):
     X = rng.standard_normal((80, 4))
     y = np.column_stack([X[:, 0] + 0.1 * X[:, 3], np.sin(X[:, 1]), X[:, 2]])
     residuals = rng.standard_normal((200, 2))
+    # Measured with noise: on exact data a linear model's zero coefficients are
+    # fitted at rounding level, where the identifiability check cannot tell
+    # their scale and warns.
+    y = y + 0.01 * rng.standard_normal(y.shape)
     for estimator in fast_instances():
         name = type(estimator).__name__
-        # The block-structured model has one output (its X: three inputs).
-        target = y[:, 0] if name == "WienerHammersteinModel" else y
-        yield name, with_states(estimator, 3).fit(X, target)
+        estimator = with_states(estimator, 3)
+        if name == "WienerHammersteinModel":
+            # FAST_PARAMS stop its refinement at max_nfev=5 on purpose (speed);
+            # the fit says so, and a pickle needs a fitted model, not a converged
+            # one.
+            with pytest.warns(
+                sklearn.exceptions.ConvergenceWarning, match="max_nfev=5"
+            ):
+                estimator.fit(X, y[:, 0])  # one output (its X: three inputs)
+            yield name, estimator
+            continue
+        yield name, estimator.fit(X, y)
     yield "GaussianNoise", GaussianNoise().fit(residuals)
     yield "AutoRegressiveNoise", AutoRegressiveNoise(max_lag=2).fit(residuals)
 

@@ -478,7 +478,7 @@ class MeasuredResult:
         return self.system.scale * _rmse(y, self.predictions[split][model], start)
 
     def validation_rmse(self):
-        """``{model: validation-tail RMSE}`` (official units) of the quoted models."""
+        """``{model: mean CV RMSE}`` (official units) of the quoted models."""
         return {
             model: fit["validation_rmse"]
             for model, fit in self.fits.items()

@@ -431,7 +431,7 @@ def zoo(system, quick=False):
 N_SPLITS = 4
 
 
-class ZooCandidate(BaseEstimator):
+class _ZooCandidate(BaseEstimator):
     """One model of the zoo at one candidate setting, as the search fits it.
 
     :class:`~skhybrid.model_selection.SimulationSearchCV` clones it with each
@@ -484,7 +484,7 @@ class ZooCandidate(BaseEstimator):
 
         Returns
         -------
-        self : ZooCandidate
+        self : _ZooCandidate
             Fitted (``model_``).
         """
         ctx = self.ctx
@@ -558,7 +558,7 @@ def _keep(model, path):
 
 def _on_physics(model, ctx, candidates, physics, key=None, random_state=None):
     """A candidate built on the fold's fitted physics (the search's factory)."""
-    return ZooCandidate(model, ctx, candidates, key, physics, random_state)
+    return _ZooCandidate(model, ctx, candidates, key, physics, random_state)
 
 
 def _shared_physics(ctx, deps):
@@ -570,7 +570,7 @@ def _shared_physics(ctx, deps):
     physics = zoo(ctx.system, ctx.quick)["physics"]
     candidates = physics.candidates(ctx, {})
     key = deps["physics"]["fit"]["selection"][physics.choice]
-    return ZooCandidate(physics, replace(ctx, label="physics"), candidates, key)
+    return _ZooCandidate(physics, replace(ctx, label="physics"), candidates, key)
 
 
 def choose_and_refit(model, ctx, deps):
@@ -613,7 +613,7 @@ def choose_and_refit(model, ctx, deps):
         estimator = partial(_on_physics, model, ctx, candidates)
         physics = _shared_physics(ctx, deps)
     else:
-        estimator, physics = ZooCandidate(model, ctx, candidates), None
+        estimator, physics = _ZooCandidate(model, ctx, candidates), None
     search = SimulationSearchCV(
         [(ctx.label or "model", estimator, {"key": keys})],
         physics=physics,

@@ -16,10 +16,12 @@ written once; each model of the zoo is a :class:`ZooModel`: its candidates, how
 one is fitted, and what it needs from models fitted before it.
 """
 
+import functools
 import hashlib
 import itertools
 import logging
 import pickle
+import sys
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -687,6 +689,49 @@ def _n_epochs(model):
     return None
 
 
+def _callables(value, seen=None):
+    """Every function reachable through an estimator's parameters."""
+    seen = set() if seen is None else seen
+    if id(value) in seen:
+        return
+    seen.add(id(value))
+    if hasattr(value, "get_params") and not isinstance(value, type):
+        for v in value.get_params(deep=False).values():
+            yield from _callables(v, seen)
+    elif isinstance(value, dict):
+        for v in value.values():
+            yield from _callables(v, seen)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            yield from _callables(v, seen)
+    elif isinstance(value, functools.partial):
+        yield from _callables(value.func, seen)
+    elif callable(value):
+        yield value
+
+
+def expose_main_functions(spec):
+    """Make the spec's functions written in the user's script findable by name.
+
+    A worker process receives a physics written in the user's script
+    (``__main__``) by value, but returns its fits with the standard pickle,
+    which stores a function by module and name, and finds none of that name in
+    the worker's own ``__main__``. Named there, they go back by name and load in
+    the user's process, where they live.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The system whose physics, inputs map and candidates are searched.
+    """
+    main = sys.modules["__main__"]
+    for func in _callables([spec.physics, spec.physics_inputs]):
+        name = getattr(func, "__qualname__", "")
+        in_main = getattr(func, "__module__", None) == "__main__"
+        if in_main and name.isidentifier() and not hasattr(main, name):
+            setattr(main, name, func)
+
+
 def fit_model(name, model, ctx, deps, sink=None):
     """Choose and refit one model of the zoo (runs in a joblib worker).
 
@@ -718,6 +763,7 @@ def fit_model(name, model, ctx, deps, sink=None):
         over the held-out blocks of each fold).
     """
     ctx = replace(ctx, sink=sink, label=name)
+    expose_main_functions(ctx.system.spec)
     with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()

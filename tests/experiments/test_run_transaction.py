@@ -129,7 +129,7 @@ SCRIPT = textwrap.dedent(
             tests={"test": record(200, 2)},
             hybrids=None,
         )
-        summary = run_system(spec, sys.argv[1], quick=True, seeds=0, n_jobs=1)
+        summary = run_system(spec, sys.argv[1], quick=True, seeds=0)  # two jobs
         print(summary["selection_sha256"])
     """
 )

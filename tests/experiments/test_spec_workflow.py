@@ -236,8 +236,11 @@ def test_cli_spec_errors_are_one_line(machine, tmp_path, capsys):
         (["--system", "toy_machine:nothing"], "has no nothing"),
         (["--system", "toy_machine:DT"], "not a skhybrid.experiments.SystemSpec"),
         (["pendulum", "--system", "toy_machine:spec"], "give one system"),
-        (["--system", "toy_machine:spec", "--seed", "1", "--seeds", "2"], "not both"),
-        (["pendulum", "--seeds", "1", "2"], "--seeds sets a measured run's seeds"),
+        (
+            ["--system", "toy_machine:spec", "--seed", "1", "--seeds", "2"],
+            "--seed S is the same option",
+        ),
+        (["pendulum", "--seeds", "1", "2"], "simulated and runs one seed"),
     ]
     for extra, words in cases:
         out = tmp_path / "never"

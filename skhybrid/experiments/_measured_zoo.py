@@ -763,7 +763,10 @@ def fit_model(name, model, ctx, deps, sink=None):
         over the held-out blocks of each fold).
     """
     ctx = replace(ctx, sink=sink, label=name)
-    expose_main_functions(ctx.system.spec)
+    try:
+        expose_main_functions(ctx.system.spec)
+    except AttributeError:  # a system whose spec is not bound: nothing to name
+        pass
     with warnings.catch_warnings(record=True) as caught, interrupts_raise():
         warnings.simplefilter("always")
         start = time.perf_counter()

@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from sklearn.exceptions import ConvergenceWarning
 
 from skhybrid.benchmarks import MEASURED, PUBLISHED
 from skhybrid.benchmarks.cascaded_tanks import physics as tanks_physics
@@ -14,7 +15,7 @@ from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.benchmarks.silverbox import INTERSAMPLE, with_next_input
 from skhybrid.benchmarks.silverbox import physics as silverbox_physics
 from skhybrid.cli import main
-from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 from skhybrid.experiments._fitting import fit_segments
 from skhybrid.experiments._measured import run_measured
 from skhybrid.experiments._measured_zoo import _records, _rmse
@@ -68,10 +69,12 @@ def test_simulation_error_fit_recovers_the_emps_parameters(vectorized):
 def test_vectorized_jacobian_matches_the_sequential_one():
     """One batched simulation gives the Jacobian of one simulation per parameter."""
     u, y = _emps_data(n=800)
-    fits = [
-        _emps_start(max_nfev=2).set_params(vectorized=v).fit_simulation(u, y)
-        for v in (False, True)
-    ]
+    # Two evaluations each: enough to compare the Jacobians, not to converge.
+    with pytest.warns(ConvergenceWarning, match="max_nfev=2"):
+        fits = [
+            _emps_start(max_nfev=2).set_params(vectorized=v).fit_simulation(u, y)
+            for v in (False, True)
+        ]
     assert_allclose(
         [fits[1].params_[k] for k in TRUTH],
         [fits[0].params_[k] for k in TRUTH],
@@ -216,7 +219,9 @@ def test_segments_and_records():
 
 def test_diverging_physics_raises():
     u, y = _emps_data(n=200)
-    model = _emps_start(max_nfev=1).fit_simulation(u, y)
+    # One evaluation on 200 samples: a fitted model to break, not a fit.
+    with pytest.warns(ConvergenceWarning), pytest.warns(IdentifiabilityWarning):
+        model = _emps_start(max_nfev=1).fit_simulation(u, y)
     # Negative damping: the velocity grows every step and overflows later on.
     model.params_ = {
         **model.params_,

@@ -503,12 +503,13 @@ def test_several_starts_start_the_physics_from_the_best_short_fit(machine):
     assert not hasattr(physics, "params_")
     # Each start fitted with 3 evaluations: the far one ends worse, and the
     # physics' fit goes on from the better one.
-    short = [
-        machine.physics()
-        .set_params(params={**base, **st}, max_nfev=3)
-        .fit_simulation(U, Y)
-        for st in starts
-    ]
+    with pytest.warns(ConvergenceWarning, match="max_nfev=3"):
+        short = [
+            machine.physics()
+            .set_params(params={**base, **st}, max_nfev=3)
+            .fit_simulation(U, Y)
+            for st in starts
+        ]
     assert short[1].result_.cost < short[0].result_.cost
     # Kept short (5 evaluations), the final fit shows where it started.
     from_best = machine.physics().set_params(params=dict(short[1].params_), max_nfev=5)

@@ -1,7 +1,5 @@
 """HybridBoostingRegressor: the sequential hybrid (the paper's section 3.1)."""
 
-import warnings
-from dataclasses import dataclass
 from numbers import Integral, Real
 
 import numpy as np
@@ -9,8 +7,12 @@ from sklearn.base import RegressorMixin, clone
 from sklearn.utils import Bunch, check_random_state, get_tags
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.exceptions import NonWhiteResidualWarning
 from skhybrid.hybrid._noise import NOISE_MODELS, make_noise_model
+from skhybrid.hybrid._stage_whiteness import (
+    StageWhiteness,
+    _warn_if_not_white,
+    _whiteness,
+)
 from skhybrid.preprocessing import (
     WindowLayout,
     infer_n_steps,
@@ -37,34 +39,6 @@ _RESERVED_NAMES = ("stage_names", "total")
 #: as helpful: a stage that predicts next to nothing (a ridge of huge alpha) moves
 #: the RMSE only by rounding, up or down with the library versions.
 _ROUNDING = 1e-9
-
-
-@dataclass(frozen=True, eq=False)
-class StageWhiteness:
-    """Ljung-Box test of the training residual after each stage, per output.
-
-    Computed with :func:`statsmodels.stats.diagnostic.acorr_ljungbox` at the single
-    lag ``lags``, on the residual of every training row (validation slice included)
-    in the order given to ``fit``.
-
-    Parameters
-    ----------
-    stage_names : tuple of str
-        Names of the kept stages, in order; row ``i`` of ``statistic`` and
-        ``pvalue`` is the residual after stages ``0..i``.
-    lags : int
-        Lag of the test (``ljung_box_lags``, at most ``n_samples - 1``).
-    statistic : ndarray of shape (n_stages, n_outputs)
-        Ljung-Box ``Q`` statistic.
-    pvalue : ndarray of shape (n_stages, n_outputs)
-        The p-value of ``Q`` under the null hypothesis of white residuals; a small
-        value means the stage left predictable structure.
-    """
-
-    stage_names: tuple
-    lags: int
-    statistic: np.ndarray
-    pvalue: np.ndarray
 
 
 class HybridBoostingRegressor(
@@ -908,37 +882,3 @@ def _seed_stage(est, rng, active):
                 seeds[key] = seed
     if seeds:
         est.set_params(**seeds)
-
-
-def _whiteness(names, residuals, lags):
-    from statsmodels.stats.diagnostic import acorr_ljungbox
-
-    n_outputs = residuals[0].shape[1] if residuals else 0
-    n = residuals[0].shape[0] if residuals else 0
-    lags = int(min(lags, n - 1))
-    stat = np.full((len(residuals), n_outputs), np.nan)
-    pval = np.full((len(residuals), n_outputs), np.nan)
-    if lags >= 1:
-        for i, r in enumerate(residuals):
-            for k in range(n_outputs):
-                if np.ptp(r[:, k]) == 0:
-                    continue  # a constant residual has no autocorrelation to test
-                with np.errstate(all="ignore"):
-                    table = acorr_ljungbox(r[:, k], lags=[lags])
-                stat[i, k] = float(table["lb_stat"].iloc[0])
-                pval[i, k] = float(table["lb_pvalue"].iloc[0])
-    return StageWhiteness(tuple(names), max(lags, 0), stat, pval)
-
-
-def _warn_if_not_white(whiteness, alpha=0.01):
-    pvalue = whiteness.pvalue[-1]
-    bad = np.flatnonzero(pvalue < alpha)
-    if bad.size:
-        warnings.warn(
-            f"the final residual of outputs {bad.tolist()} is not white (Ljung-Box "
-            f"p-value {np.round(pvalue[bad], 4).tolist()} < {alpha} at lag "
-            f"{whiteness.lags}), but noise_model='gaussian' assumes independent "
-            "rows; use noise_model='ar', or a stage with objective='ljung_box'.",
-            NonWhiteResidualWarning,
-            stacklevel=3,
-        )

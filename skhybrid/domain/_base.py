@@ -229,7 +229,7 @@ class DomainModel(
             init = self._initial_params(X, y2)
         else:
             init = self._initial_params(X, y2, start=start)
-        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        spec = _ParameterSpec(init, self.fixed, self.resolved_bounds(init))
         self._spec = spec
         return y2, spec
 
@@ -387,8 +387,22 @@ class DomainModel(
         return self.predict_with(X, self.unpack_params(theta))
 
     # -- fitting internals ---------------------------------------------------------
-    def _resolved_bounds(self, init):
-        bounds = {k: v for k, v in self._default_bounds().items() if k in init}
+    def resolved_bounds(self, params=None):
+        """The bounds a fit checks: the model's own defaults, updated by ``bounds``.
+
+        Parameters
+        ----------
+        params : dict or None, default=None
+            The parameters to bound (``self.params`` when None); a default bound
+            of a parameter not among them is left out.
+
+        Returns
+        -------
+        bounds : dict of str to tuple
+            ``{name: (low, high)}``.
+        """
+        params = self.params if params is None else params
+        bounds = {k: v for k, v in self._default_bounds().items() if k in params}
         bounds.update(self.bounds or {})
         return bounds
 

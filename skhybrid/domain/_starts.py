@@ -163,7 +163,7 @@ def short_fit_start(model, method, *args):
         ``model.params``); None where the model has no ``starts`` or every
         short fit failed.
     """
-    bounds = model._resolved_bounds(model.params)
+    bounds = model.resolved_bounds()
     starts = check_starts(model.starts, model.params, model.fixed, bounds)
     if not starts:
         return None
@@ -241,7 +241,7 @@ def random_starts(model, n_starts, *, factor=5.0, random_state=None):
         )
     rng = check_random_state(random_state)
     # The bounds the fit checks the starts against (a model's defaults too).
-    resolve = getattr(model, "_resolved_bounds", None)
+    resolve = getattr(model, "resolved_bounds", None)
     bounds = resolve(params) if resolve is not None else (model.bounds or {})
     free = [k for k in params if k not in model.fixed]
     for name in free:

@@ -562,7 +562,7 @@ default=None
         self._validate_params()
         _, observed, _ = self._structure()
         init = self._initial_params()
-        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        spec = _ParameterSpec(init, self.fixed, self.resolved_bounds(init))
         self._spec = spec
         if observed is not None:
             self.n_outputs_ = len(observed)

@@ -125,7 +125,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 "every parameter must be a scalar, got array-valued "
                 f"{sorted(k for k, v in init.items() if np.ndim(v))}."
             )
-        spec = _ParameterSpec(init, self.fixed, self._resolved_bounds(init))
+        spec = _ParameterSpec(init, self.fixed, self.resolved_bounds(init))
         self._spec = spec
         if self.objective != "mse" and self.ljung_box_lags >= y_flat.shape[0]:
             raise ValueError(

@@ -88,6 +88,11 @@ class MeasuredSystem:
     spec : SystemSpec or None, default=None
         The system; None for a built-in benchmark, whose spec is built from
         its files.
+    module : module or None, default=None
+        A built-in measured benchmark of :mod:`skhybrid.benchmarks`: its
+        ``NAME``, ``TITLE``, ``UNIT``, ``SCALE``, ``make_spec(data, *, quick)``
+        and, where its zoo holds no state-space hybrid, ``HYBRIDS = False``
+        (known before its files are read). Its spec is built when a run binds it.
     """
 
     #: Runs on measured records, not on simulated splits.
@@ -115,25 +120,6 @@ class MeasuredSystem:
             self.unit = spec.unit
             self.scale = float(spec.scale)
             self.hybrids = spec.has_hybrids()
-
-    @classmethod
-    def builtin(cls, module):
-        """The system of a built-in benchmark's module (its spec not built yet).
-
-        Parameters
-        ----------
-        module : module
-            A measured benchmark of :mod:`skhybrid.benchmarks`: its ``NAME``,
-            ``TITLE``, ``UNIT``, ``SCALE``, ``make_spec(data, *, quick)`` and,
-            where its zoo holds no state-space hybrid, ``HYBRIDS = False`` (known
-            before its files are read).
-
-        Returns
-        -------
-        system : MeasuredSystem
-            Its spec is built from the benchmark's files when the run binds it.
-        """
-        return cls(module=module)
 
     @classmethod
     def from_spec(cls, spec):

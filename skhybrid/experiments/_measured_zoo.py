@@ -651,8 +651,8 @@ def choose_and_refit(model, ctx, deps):
         chosen = getattr(search, "best_estimator_", None)
         chosen = None if chosen is None else chosen.model_
         runs = search.best_oof_runs_
-    for key in keys[:1] if chosen is None else ():
-        logger.info("%s %s: no candidate scored", ctx.label, key)
+    if chosen is None:
+        logger.info("%s: no candidate scored", ctx.label)
     selection = {
         "validation_rmse_by_candidate": {
             str(k): scale * float(m) for k, m in zip(keys, means, strict=True)

@@ -15,7 +15,7 @@ SYSTEMS = {name: module.SYSTEM for name, module in SIMULATED.items()}
 
 #: The measured benchmarks by name.
 MEASURED_SYSTEMS = {
-    name: MeasuredSystem.builtin(module) for name, module in MEASURED.items()
+    name: MeasuredSystem(module=module) for name, module in MEASURED.items()
 }
 
 

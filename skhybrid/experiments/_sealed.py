@@ -61,11 +61,18 @@ def describe_spec(spec, U, Y=None):
         candidate family and the notes.
     """
     return {
-        "name": spec.name,
+        **_model_fields(spec),
         "dt": spec.sample_period(),
-        "n_init": spec.n_init,
         "record_lengths": [len(u) for u in U],
         "records_sha256": None if Y is None else records_digest(U, Y),
+    }
+
+
+def _model_fields(spec):
+    """What a spec says of its system and candidates, without its records."""
+    return {
+        "name": spec.name,
+        "n_init": spec.n_init,
         "physics": _describe(spec.physics),
         "physics_inputs": _describe(spec.physics_inputs),
         "segments": _describe(spec.segments),
@@ -93,16 +100,9 @@ def spec_digest(spec):
         Hex digest.
     """
     fields = {
-        "name": spec.name,
+        **_model_fields(spec),
         "dt": spec.dt,
-        "n_init": spec.n_init,
-        "physics": _describe(spec.physics),
-        "physics_inputs": _describe(spec.physics_inputs),
         "physics_starts": _describe(spec.physics_starts),
-        "segments": _describe(spec.segments),
-        "hybrids": _describe(spec.hybrids),
-        "hybrid_records": spec.hybrid_records,
-        "notes": spec.notes,
     }
     return hashlib.sha256(_canonical(fields).encode()).hexdigest()
 

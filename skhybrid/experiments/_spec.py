@@ -8,6 +8,8 @@ the estimation records, seals the selection and only then simulates the test
 records.
 """
 
+import difflib
+import inspect
 import numbers
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -16,7 +18,7 @@ import numpy as np
 from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.hybrid import MIN_SUBSEQUENCES
+from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
 
 __all__ = ["SystemSpec", "as_records", "records_digest"]
 
@@ -239,10 +241,6 @@ _HYBRID_SET_BY_RUN = ("physics", "n_init", "warm_start_physics", "random_state")
 
 def _check_hybrids(hybrids):
     """Raise unless every candidate's settings are the hybrid's parameters."""
-    import inspect
-
-    from skhybrid.hybrid import StateSpaceHybridRegressor
-
     allowed = sorted(
         set(inspect.signature(StateSpaceHybridRegressor.__init__).parameters)
         - {"self", *_HYBRID_SET_BY_RUN}
@@ -256,8 +254,6 @@ def _check_hybrids(hybrids):
         unknown = sorted(set(settings) - set(allowed), key=str)
         if unknown:
             hint = ""
-            import difflib
-
             close = difflib.get_close_matches(str(unknown[0]), allowed, n=1)
             if close:
                 hint = f" (did you mean {close[0]!r}?)"

@@ -97,6 +97,20 @@ def _finished(out):
     return sorted(json.loads(p.read_text())["model"] for p in folder.glob("*.json"))
 
 
+def _ended_by_ctrl_c(proc, err):
+    """The run handled the Ctrl-C (its message printed) and ended as interrupted.
+
+    ``python -m`` on CPython up to 3.13 may end a process whose Ctrl-C was
+    handled by SIGINT instead of the exit code 130 it returned: a
+    KeyboardInterrupt that once passed out of code run by ``exec`` of a string
+    (dataclasses and namedtuples build their methods so) leaves a flag that only
+    the ``-m`` path checks at exit (cpython gh-128130). A shell reports both as
+    130; the console script ``skhybrid`` always returns 130.
+    """
+    assert proc.returncode in (130, -signal.SIGINT), err
+    assert "skhybrid: interrupted" in err, err
+
+
 def _one_error_line(capsys, *words):
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
@@ -333,7 +347,7 @@ def test_ctrl_c_on_quick_run_then_resume_gives_the_uninterrupted_table(
     start = time.monotonic()
     _, err = proc.communicate(timeout=60)
     assert time.monotonic() - start < 10  # promptly
-    assert proc.returncode == 130, err
+    _ended_by_ctrl_c(proc, err)
     assert "--resume" in err
     kept = len(list(models.glob("*.json")))
     assert 2 <= kept < 12
@@ -394,17 +408,17 @@ def test_second_run_into_a_busy_folder_is_refused(tmp_path, capsys, no_training)
         assert _run(out, "--seed", "1") == 2
         _one_error_line(capsys, "in use by another skhybrid run", f"pid {first.pid}")
         # Ctrl-C once the run has started (run.json written), not while it still
-        # imports its libraries: there a Ctrl-C was seen to be handled (the
-        # message printed) and the process still to end by SIGINT (-2, which a
-        # shell reports as 130 too), or to be lost and the run to go on.
+        # imports its libraries: there a Ctrl-C was seen to be lost and the run
+        # to go on.
         while not (out / "run.json").exists():
             assert first.poll() is None and time.monotonic() < deadline
             time.sleep(0.05)
     finally:
         first.send_signal(signal.SIGINT)
         _, err = first.communicate(timeout=60)
-    assert first.returncode == 130, err
+    _ended_by_ctrl_c(first, err)
     assert not (out / ".lock").exists()
+    assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
 
 
 def test_ctrl_c_while_the_models_are_counted_exits_130_and_unlocks(

@@ -26,7 +26,8 @@ the published figures: its files come from --data DIR, or are downloaded once
 into the data home ($SKHYBRID_DATA, else ~/skhybrid_data) and checked.
 `skhybrid run --system module:object` runs your own machine's SystemSpec the
 same way. A measured run chooses every model by blocked cross-validation of
-the estimation records at each seed (--seeds, default 0 1 2), writes the sealed
+the estimation records at the first seed and refits each choice at every seed
+(--seeds, default 0 1 2), writes the sealed
 selection (selection.json, with its SHA-256) and only then reads the test
 records.
 """
@@ -179,8 +180,9 @@ def _build_parser():
         nargs="+",
         default=None,
         metavar="S",
-        help="seeds, 0 to 2**32 - 1: a measured run makes a full selection at "
-        "each and reports the mean and spread over them (default: 0 1 2); a "
+        help="seeds, 0 to 2**32 - 1: a measured run searches at the first and "
+        "refits each choice at every seed, and reports the mean and spread over "
+        "them (default: 0 1 2); a "
         "simulated system runs one, the seed of its data and models (default: 0)",
     )
     # The former one-seed option, kept working: --seed S is --seeds S.

@@ -15,7 +15,8 @@ emps --data ../shared/data --quick`` (see ``skhybrid --help``), or from Python::
 A user's own machine is a :class:`SystemSpec` (records, sample period,
 initialisation window, physics, test records) run by :func:`run_system`, or by
 ``skhybrid run --system module:object``: the same candidate family, chosen by
-blocked cross-validation of the estimation records at each seed, with the
+blocked cross-validation of the estimation records (searched at the first seed,
+refitted at each), with the
 selection sealed before the test records are read. The built-in systems are the
 catalogue :mod:`skhybrid.benchmarks`, one module each;
 :func:`skhybrid.benchmarks.benchmark_spec` returns a measured benchmark's spec.

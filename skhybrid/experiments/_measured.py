@@ -13,7 +13,8 @@ folder with its lock and resume, joblib or Dask, progress, :func:`write_report`)
   lengths, the state-space hybrid's horizon, the model quoted) on validation
   blocked folds of the records (:class:`~skhybrid.model_selection.SimulationSearchCV`),
   never on a test record;
-- every seed's selection is sealed (:mod:`skhybrid.experiments._sealed`), then
+- the search runs at the first seed and each choice is refitted at every seed;
+  every seed's selection is sealed (:mod:`skhybrid.experiments._sealed`), then
   each model is simulated in free run on each test record from the first
   ``n_init`` measured outputs and scored by ``RMSE(y[n_init:],
   y_model[n_init:])`` in the official units, beside the published figures.
@@ -41,7 +42,7 @@ __all__ = [
     "run_system",
 ]
 
-#: The seeds of a measured run: each a full selection.
+#: The seeds of a measured run: the first searches, each refits the choices.
 DEFAULT_SEEDS = (0, 1, 2)
 #: Largest seed: numpy's and scikit-learn's seeds are 32-bit unsigned integers.
 MAX_SEED = 2**32 - 1
@@ -79,7 +80,7 @@ def check_seeds(seeds):
     Parameters
     ----------
     seeds : sequence of int
-        Each seed is a full selection.
+        The first seed searches; each refits the choices.
 
     Returns
     -------
@@ -215,8 +216,9 @@ def run_system(
     """Fit, choose, seal and score a measured system described by ``spec``.
 
     The public workflow of a user's machine (and of the built-in benchmarks):
-    at each seed the default candidate family is fitted on the estimation
-    records and every choice made by blocked cross-validation of them; the selections of
+    the default candidate family is fitted on the estimation records and every
+    choice made by blocked cross-validation of them at the first seed, and each
+    choice is refitted on the whole records at every seed; the selections of
     all seeds are written to ``OUT/selection.json`` with their SHA-256 before
     any test record is read; then every model is simulated on the test records
     and ``results.csv``, ``results.json`` (the hash, each seed's choice and the
@@ -323,7 +325,8 @@ def run_measured(
     quick : bool, default=False
         Shorter fits (and a shorter Silverbox estimation record).
     seeds : int, sequence of int or None, default=(0, 1, 2)
-        Seeds of the networks; each is a full selection (an int is one seed,
+        Seeds of the networks: the search runs at the first (fold ``k`` at
+        seed + ``k``) and every seed refits its choices (an int is one seed,
         None the default seeds).
     n_jobs : int, default=2
         Models fitted in parallel with joblib (-1: all cores), as ``--n-jobs``.

@@ -331,11 +331,13 @@ def measured_section(run, figure):
         else ""
     )
     stochastic = _stochastic_html(summary, unit)
+    searched = summary.get("searched_at_seed", summary["seeds"][0])
     return f"""<h2>{html.escape(summary["title"])}</h2>
 <p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
-deviation over seeds {seeds} (each seed a full selection; "deterministic" where no
-fit depends on the seed); the first {summary["n_init"]} measured samples initialise
-the state. Every model was fitted on the estimation records only. Every choice
+deviation over seeds {seeds} (searched at seed {searched}, each choice refitted at
+every seed; "deterministic" where no fit depends on the seed); the first
+{summary["n_init"]} measured samples initialise the state. Every model was fitted on
+the estimation records only. Every choice
 (window and segment lengths, the hybrid's horizon T, the model quoted) was made by
 blocked cross-validation of the estimation records: each record cut into blocks,
 every candidate fitted on the other blocks and simulated over the held-out one;

@@ -343,6 +343,7 @@ class MeasuredSystem:
             result.settings.quick,
             result.settings.seed,
             cache=result.cache_dir,
+            searched=result.searched.get(name),
         )
         return delayed(fit_model)(name, model, ctx, deps, sink)
 
@@ -400,6 +401,10 @@ class MeasuredResult:
         test record.
     wall_time : float
         Seconds for the selection.
+    searched : dict of str to dict
+        Each model's search made at the run's first seed (its ``selection``,
+        out-of-fold ``runs`` and ``seed``), refitted here at this seed; empty
+        where this result's own seed searches.
     """
 
     def __init__(self, system, settings, train, n_init, dt):
@@ -422,6 +427,7 @@ class MeasuredResult:
         self.bands = {}
         self.cache_dir = None
         self.wall_time = float("nan")
+        self.searched = {}
 
     @property
     def store_key(self):

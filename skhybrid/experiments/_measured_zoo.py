@@ -164,6 +164,10 @@ class MeasuredContext:
         The model being fitted (names its epochs).
     cache : str or Path or None, default=None
         Where deterministic fits are kept (the run folder's cache), or None.
+    searched : dict or None, default=None
+        The model's search made at the run's first seed (``selection``, its
+        chosen candidate's out-of-fold ``runs`` and the ``seed``): the chosen
+        candidate is refitted at this seed, not searched again. None searches.
     """
 
     system: object
@@ -176,6 +180,7 @@ class MeasuredContext:
     sink: object = None
     label: str = ""
     cache: object = None
+    searched: object = None
 
 
 def _watch(estimator, ctx):
@@ -611,6 +616,8 @@ def choose_and_refit(model, ctx, deps):
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
     keys = list(candidates)
+    if ctx.searched is not None:
+        return _refit_searched(model, ctx, deps, candidates, ctx.searched)
     if "physics" in model.requires:
         estimator = partial(_on_physics, model, ctx, candidates)
         physics = _shared_physics(ctx, deps)
@@ -662,6 +669,7 @@ def choose_and_refit(model, ctx, deps):
             for k, row in zip(keys, by_fold, strict=True)
         },
         model.choice: keys[best],
+        "chosen_candidate": str(keys[best]),
         "validation_rmse": scale * float(means[best]),
         "cv_rmse_std": scale * float(np.std(by_fold[best])),
         "cv_rmse_chosen_by_fold": [scale * float(v) for v in by_fold[best]],
@@ -677,6 +685,52 @@ def choose_and_refit(model, ctx, deps):
     if isinstance(candidates[keys[best]], dict):
         selection["settings"] = {k: repr(v) for k, v in candidates[keys[best]].items()}
     return chosen, selection, runs
+
+
+def _refit_searched(model, ctx, deps, candidates, searched):
+    """Refit the candidate a search at another seed chose, at this run's seed.
+
+    The search (every candidate on every fold) runs once, at the run's first
+    seed; each further seed refits its choice on the whole records with its own
+    networks' seed, which gives the spread over seeds. The refit is the one the
+    search makes (:meth:`SimulationSearchCV.fit`'s ``refit``): the physics
+    fitted on the whole records, then the candidate at ``random_state=seed``.
+
+    Parameters
+    ----------
+    model : ZooModel
+        The model's candidates and fit.
+    ctx : MeasuredContext
+        The system, the estimation records and the settings (this seed's).
+    deps : dict of str to dict
+        For each required model: ``fit`` (its fit record, with its choice).
+    candidates : dict
+        ``{key: candidate}`` of the model, the same as at the searched seed.
+    searched : dict
+        ``selection`` and ``runs`` of the search, and its ``seed``.
+
+    Returns
+    -------
+    fitted, selection, runs
+        As :func:`choose_and_refit`'s; ``selection`` and ``runs`` are the
+        search's, with ``searched_at_seed``.
+    """
+    selection = {**searched["selection"], "searched_at_seed": int(searched["seed"])}
+    selection.pop("failed", None)
+    name = selection.get("chosen_candidate")
+    keys = [key for key in candidates if str(key) == name]
+    score = selection.get("validation_rmse")
+    if not keys or score is None or not np.isfinite(score):
+        return None, selection, None
+    if "physics" in model.requires:
+        physics = clone(_shared_physics(ctx, deps)).fit(list(ctx.U), list(ctx.Y))
+        estimator = _on_physics(
+            model, ctx, candidates, physics, key=keys[0], random_state=ctx.seed
+        )
+    else:
+        estimator = _ZooCandidate(model, ctx, candidates, keys[0], None, ctx.seed)
+    estimator.fit(list(ctx.U), list(ctx.Y))
+    return estimator.model_, selection, searched["runs"]
 
 
 def _n_epochs(model):

@@ -276,7 +276,9 @@ def _settings(results):
         return first.settings.to_dict()
     return {
         "system": first.system.name,
-        "seeds (each a full selection)": ", ".join(map(str, first.seeds)),
+        "seeds (searched at the first, refitted at each)": ", ".join(
+            map(str, first.seeds)
+        ),
         "quick": first.settings.quick,
         "n_init (samples that start each free run)": first.results[0].n_init,
         "dt [s]": first.results[0].dt,

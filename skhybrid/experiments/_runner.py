@@ -280,6 +280,7 @@ def run_experiment(
     progress=False,
     folder=None,
     data=None,
+    searched=None,
 ):
     """Fit a system's model zoo and score it: a paper system or a measured one.
 
@@ -321,6 +322,11 @@ def run_experiment(
     data : str, Path or None, default=None
         Folder holding a built-in measured benchmark's files (None fetches
         them).
+    searched : dict of str to dict or None, default=None
+        A measured system's searches made at another seed, by model:
+        ``{"selection": ..., "runs": ..., "seed": ...}`` (see
+        :func:`~skhybrid.experiments._sealed.run_seeds`). Each model then refits
+        the candidate its search chose at this seed instead of searching again.
 
     Returns
     -------
@@ -340,6 +346,7 @@ def run_experiment(
             )
     if measured:
         result = system.new_result(settings, data)
+        result.searched = dict(searched or {})
         system = result.system  # bound to its spec
         if folder is not None:
             # Deterministic fits are computed once per records and kept here:

@@ -1,7 +1,7 @@
 """The sealed test: every seed's selection is frozen and hashed before any test record.
 
-A measured run fits the candidate family at each seed (each seed a full
-selection, :func:`~skhybrid.experiments.run_experiment`), then writes
+A measured run searches the candidate family at its first seed and refits each
+choice at every seed (:func:`run_seeds`), then writes
 ``selection.json``: the spec's description, every candidate's validation RMSE,
 every choice and the chosen model of each seed, with the SHA-256 of all of it.
 Only then are the test records read (:meth:`SystemSpec.test_records`) and every
@@ -394,7 +394,7 @@ class MeasuredRun:
     settings : MeasuredSettings
         The first seed's settings (``quick``).
     seeds : list of int
-        The seeds, each a full selection.
+        The seeds (the first searched, each refitted).
     rows : list of dict
         ``results.csv`` rows of every seed.
     wall_time : float
@@ -513,6 +513,7 @@ class MeasuredRun:
                 for r in self.results
             },
             "hull": first.hull,
+            "searched_at_seed": first.settings.seed,
             "cv_rmse": {str(r.settings.seed): _cv_rmse(r) for r in self.results},
             "chosen_test_over_cv": {
                 split: _spread(
@@ -588,6 +589,31 @@ def record_digests(system, seeds, *, quick=False, data=None):
     }
 
 
+def first_searches(result):
+    """Each model's search at ``result``'s seed, for the run's further seeds.
+
+    Parameters
+    ----------
+    result : MeasuredResult
+        The first seed's selection.
+
+    Returns
+    -------
+    searched : dict of str to dict
+        ``{model: {"selection", "runs", "seed"}}`` for every model that was
+        searched.
+    """
+    return {
+        name: {
+            "selection": fit["selection"],
+            "runs": result.validation_runs.get(name),
+            "seed": int(result.settings.seed),
+        }
+        for name, fit in result.fits.items()
+        if fit.get("selection")
+    }
+
+
 def run_seeds(
     system,
     *,
@@ -605,7 +631,7 @@ def run_seeds(
     system : MeasuredSystem
         The system.
     seeds : sequence of int
-        Each seed is a full selection.
+        The first seed searches; each seed refits the choices.
     quick : bool, default=False
         Shorter fits and fewer candidates.
     n_jobs : int, default=1
@@ -621,19 +647,29 @@ def run_seeds(
     -------
     run : MeasuredRun
         Every seed's selection and test scores, and the seal.
+
+    Notes
+    -----
+    Every model's search (each candidate on every fold) runs at the first seed,
+    fold ``k``'s networks at ``seeds[0] + k``; each further seed refits the
+    chosen candidate on the whole records at its own seed. The spread over
+    seeds is the refits' spread; the CV figures are the one search's.
     """
     start = time.perf_counter()
-    results = [
-        run_experiment(
+    results, searched = [], None
+    for seed in seeds:
+        result = run_experiment(
             system,
             settings=system.default_settings(quick, seed),
             n_jobs=n_jobs,
             progress=progress,
             folder=folder,
             data=data,
+            searched=searched,
         )
-        for seed in seeds
-    ]
+        results.append(result)
+        if searched is None:
+            searched = first_searches(result)
     sealed = seal(results, None if folder is None else folder.path)
     # The first read of the test records: after the selection file is written.
     # Checked against the estimation records before any model is simulated.

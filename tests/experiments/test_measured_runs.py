@@ -391,7 +391,7 @@ def test_progress_counts_the_zoos_models(tmp_path, capsys, axis):
     assert main([*argv, "--seeds", "0", "1", "--out", str(tmp_path / "run")]) == 0
     err = capsys.readouterr().err
     # Standard error is not a terminal here: one line per finished model, and
-    # one bar per seed (each seed is a full selection).
+    # one bar per seed (the first searches, each refits).
     lines = [line for line in err.splitlines() if line.startswith("emps seed ")]
     assert [line.split(" models: ")[0] for line in lines] == [
         f"emps seed {s}: {i}/4" for s in (0, 1) for i in range(1, 5)

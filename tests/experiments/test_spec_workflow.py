@@ -18,7 +18,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
-from skhybrid.experiments import SystemSpec, run_system
+from skhybrid.experiments import SystemSpec, _measured_zoo, run_system
 
 MACHINE = textwrap.dedent(
     '''
@@ -120,7 +120,15 @@ def _canonical_hash(selection):
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
+def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch):
+    searches = []
+
+    class CountedSearch(_measured_zoo.SimulationSearchCV):
+        def fit(self, U, Y):
+            searches.append(self.random_state)
+            return super().fit(U, Y)
+
+    monkeypatch.setattr(_measured_zoo, "SimulationSearchCV", CountedSearch)
     out = tmp_path / "run"
     spec = machine.make_spec(out=out)
     summary = run_system(spec, out, quick=True, n_jobs=1)
@@ -142,6 +150,18 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path):
         "state-space hybrid",
     }
     assert summary["seeds"] == [0, 1, 2]
+    # Every model is searched once, at the first seed; the other seeds refit
+    # its choice with their own networks' seed.
+    assert searches == [0] * len(models)
+    assert summary["searched_at_seed"] == 0
+    for seed in ("1", "2"):
+        for name, fit in summary["fits"][seed].items():
+            first = summary["fits"]["0"][name]["selection"]
+            assert fit["selection"]["searched_at_seed"] == 0
+            assert fit["selection"]["chosen_candidate"] == first["chosen_candidate"]
+            assert summary["cv_rmse"][seed][name] == summary["cv_rmse"]["0"][name]
+    dense = summary["test_rmse"]["test"]["physics + dense"]["by_seed"]
+    assert len(set(dense)) == 3  # a network refitted at each seed
     for seed, chosen in summary["chosen_model"].items():
         validation = summary["validation_rmse"][seed]
         assert set(validation) == models

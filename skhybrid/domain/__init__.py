@@ -22,6 +22,7 @@ from skhybrid.domain._motor import dc_motor_step
 from skhybrid.domain._output_error import _LinearOutputError as _LinearOutputError
 from skhybrid.domain._parametric import ParametricModel
 from skhybrid.domain._pendulum import PendulumModel, pendulum_step, single_pendulum_step
+from skhybrid.domain._progress import fit_progress
 from skhybrid.domain._starts import random_starts
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.domain._subspace import subspace_state_space
@@ -38,6 +39,7 @@ __all__ = [
     "check_identifiability",
     "coulomb_viscous_friction",
     "dc_motor_step",
+    "fit_progress",
     "pendulum_step",
     "random_starts",
     "single_pendulum_step",

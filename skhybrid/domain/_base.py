@@ -13,6 +13,7 @@ from skhybrid.domain._identifiability import (
     warn_if_underdetermined,
     warn_if_unidentifiable,
 )
+from skhybrid.domain._progress import counting
 from skhybrid.losses import OBJECTIVES, objective_residuals
 from skhybrid.preprocessing import step_width
 from skhybrid.simulation import SimulatorMixin
@@ -469,6 +470,9 @@ class DomainModel(
 
         def scaled_fun(z):
             return np.asarray(fun(z * p_scale), dtype=float) / r_scale
+
+        n_records = len(X) if isinstance(X, (list, tuple)) else 1
+        scaled_fun = counting(scaled_fun, self.max_nfev, n_records)
 
         scaled_jac = jac
         if callable(jac):

@@ -34,14 +34,14 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning, FitFailedWarning
 from sklearn.linear_model import Ridge
 
-from skhybrid.domain import StateSpaceModel
+from skhybrid.domain import StateSpaceModel, fit_progress
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.experiments._fitting import (
     fit_segments,
     interrupts_raise,
     physical_params,
 )
-from skhybrid.experiments._progress import attach_epoch_logger
+from skhybrid.experiments._progress import attach_epoch_logger, physics_hook
 from skhybrid.experiments._spec import pieces_per_record, records_digest
 from skhybrid.experiments._store import _write_atomic
 from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
@@ -276,12 +276,15 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     system = ctx.system
     U_model = _model_inputs(system, U)
     model = system.physics(U_model, Y, ctx.dt, quick=ctx.quick)
-    with warnings.catch_warnings(record=True) as caught:
+    pieces = "whole records" if segment is None else f"segments of {segment} samples"
+    hook = None
+    if ctx.sink is not None:  # the run's progress shows its evaluations
+        hook = physics_hook(ctx.sink, f"{ctx.label or 'physics'} on {pieces}")
+    with warnings.catch_warnings(record=True) as caught, fit_progress(hook):
         warnings.simplefilter("always")
         fit_segments(model, U_model, Y, segment)
     # A fit that stopped short of convergence is kept, and said so in the run's
     # record (fits.<model>.warnings, the report); other warnings stay quiet.
-    pieces = "whole records" if segment is None else f"segments of {segment} samples"
     for w in caught:
         if issubclass(w.category, ConvergenceWarning):
             warnings.warn(

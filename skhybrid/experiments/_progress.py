@@ -10,10 +10,16 @@ epoch to a sink that pickles into any worker:
 
 The bar over models moves as each model's result comes back to the parent, with
 any backend.
+
+A physics fit reports its residual evaluations the same way
+(:func:`physics_hook`, through :func:`skhybrid.domain.fit_progress`): the
+bars show the latest fit's evaluations against its ``max_nfev`` and its
+records or segments.
 """
 
 import tempfile
 import threading
+import time
 import uuid
 from pathlib import Path
 
@@ -26,7 +32,52 @@ __all__ = [
     "ProgressBars",
     "attach_epoch_logger",
     "epoch_budget",
+    "physics_hook",
 ]
+
+#: First character of a physics fit's event (an epoch's event is a model's name).
+PHYSICS_EVENT = "\x1f"
+#: Least time between two events of one physics fit (the first always goes).
+PHYSICS_EVENT_INTERVAL = 0.5
+
+
+def physics_event(label, nfev, max_nfev, n_records):
+    """The event line of a physics fit's progress."""
+    limit = "" if max_nfev is None else int(max_nfev)
+    return f"{PHYSICS_EVENT}{label}\t{int(nfev)}\t{limit}\t{int(n_records)}"
+
+
+def parse_physics_event(line):
+    """``(label, nfev, max_nfev or None, n_records)`` of a physics event line."""
+    label, nfev, limit, records = line[len(PHYSICS_EVENT) :].split("\t")
+    return label, int(nfev), int(limit) if limit else None, int(records)
+
+
+def physics_hook(sink, label):
+    """A :func:`skhybrid.domain.fit_progress` hook that reports to ``sink``.
+
+    Parameters
+    ----------
+    sink : FileSink or DaskEventSink
+        Where the run's progress goes.
+    label : str
+        What is being fitted (the model, and its segments).
+
+    Returns
+    -------
+    hook : callable
+        ``hook(nfev, max_nfev, n_records)``, emitting at most every
+        ``PHYSICS_EVENT_INTERVAL`` seconds (and at a fit's first evaluation).
+    """
+    last = [-float("inf")]
+
+    def hook(nfev, max_nfev, n_records):
+        now = time.monotonic()
+        if nfev == 1 or now - last[0] >= PHYSICS_EVENT_INTERVAL:
+            last[0] = now
+            sink.emit(physics_event(label, nfev, max_nfev, n_records))
+
+    return hook
 
 
 class FileSink:
@@ -42,12 +93,22 @@ class FileSink:
         except OSError:  # the run's progress folder is gone: progress is optional
             pass
 
-    def count(self):
+    def poll(self):
+        """``(epochs, physics)``: epochs so far, the latest physics event or None."""
+        epochs, physics = 0, None
         try:
             with open(self.path) as f:
-                return sum(1 for _ in f)
+                for line in f:
+                    if line.startswith(PHYSICS_EVENT):
+                        physics = line.rstrip("\n")
+                    else:
+                        epochs += 1
         except OSError:
-            return 0
+            pass
+        return epochs, None if physics is None else parse_physics_event(physics)
+
+    def count(self):
+        return self.poll()[0]
 
 
 class DaskEventSink:
@@ -60,6 +121,7 @@ class DaskEventSink:
     def __init__(self, topic):
         self.topic = topic
         self._count = 0
+        self._physics = None
         self._lock = threading.Lock()
 
     def __getstate__(self):
@@ -78,8 +140,12 @@ class DaskEventSink:
         worker.log_event(self.topic, name)
 
     def _on_event(self, event):
+        message = event[1] if isinstance(event, tuple) else event
         with self._lock:
-            self._count += 1
+            if isinstance(message, str) and message.startswith(PHYSICS_EVENT):
+                self._physics = parse_physics_event(message)
+            else:
+                self._count += 1
 
     def subscribe(self, client):
         client.subscribe_topic(self.topic, self._on_event)
@@ -91,9 +157,13 @@ class DaskEventSink:
         if client is not None:
             client.unsubscribe_topic(self.topic)
 
-    def count(self):
+    def poll(self):
+        """``(epochs, physics)``: epochs so far, the latest physics event or None."""
         with self._lock:
-            return self._count
+            return self._count, self._physics
+
+    def count(self):
+        return self.poll()[0]
 
 
 class EpochLogger(Callback):
@@ -166,9 +236,12 @@ def epoch_budget(estimator):
 class ProgressBars:
     """Progress on standard error: fitted models, and epochs of all networks.
 
-    On a terminal, two tqdm bars (models of the run's total, and epochs of the
-    networks' largest possible total where it is known). Elsewhere (a log file,
-    CI), one line per finished model instead of bar refreshes.
+    On a terminal, three tqdm bars: models of the run's total, epochs of the
+    networks (of their largest possible total where it is known), and the
+    latest physics fit's residual evaluations of its ``max_nfev``, with its
+    records or segments. Elsewhere (a log file, CI), one line per finished
+    model, and a line on a physics fit's evaluations every
+    ``log_interval`` seconds while one runs.
 
     Parameters
     ----------
@@ -186,6 +259,9 @@ class ProgressBars:
         None where it is not known before the fits.
     stream : file-like or None, default=None
         Where progress goes; None is ``sys.stderr``.
+    log_interval : float, default=15.0
+        Seconds between two lines on a physics fit's evaluations outside a
+        terminal.
     """
 
     #: No rate: "?model/s" says nothing while the first model trains.
@@ -200,6 +276,7 @@ class ProgressBars:
         n_done=0,
         n_epochs=None,
         stream=None,
+        log_interval=15.0,
     ):
         import sys
 
@@ -220,10 +297,14 @@ class ProgressBars:
         else:
             self.sink = DaskEventSink(f"skhybrid-epochs-{uuid.uuid4().hex}")
             self.sink.subscribe(client)
-        self.models = self.epochs = None
+        self.models = self.epochs = self.physics = None
+        self.log_interval = float(log_interval)
+        self._physics_seen = None
+        self._logged_at = time.monotonic()
         self._stop = threading.Event()
-        self._thread = None
+        self._thread = threading.Thread(target=self._watch, daemon=True)
         if not self.interactive:
+            self._thread.start()
             return
         self.models = tqdm(
             total=n_models,
@@ -241,12 +322,44 @@ class ProgressBars:
             position=1,
             file=self.stream,
         )
-        self._thread = threading.Thread(target=self._watch, daemon=True)
+        self.physics = tqdm(
+            total=None,
+            desc=f"{description}: physics evaluations",
+            unit="eval",
+            position=2,
+            file=self.stream,
+            bar_format="{desc}: {n_fmt}/{total_fmt} {postfix}",
+        )
         self._thread.start()
 
     def _watch(self):
         while not self._stop.wait(0.5):
-            self.epochs.update(self.sink.count() - self.epochs.n)
+            self._update()
+
+    def _update(self):
+        epochs, physics = self.sink.poll()
+        if self.epochs is not None:
+            self.epochs.update(epochs - self.epochs.n)
+        if physics is None or physics == self._physics_seen:
+            return
+        self._physics_seen = physics
+        label, nfev, limit, records = physics
+        what = f"{label}, {records} record{'s' if records != 1 else ''}"
+        if self.physics is not None:
+            self.physics.total = limit
+            self.physics.n = nfev
+            self.physics.set_postfix_str(what, refresh=False)
+            self.physics.refresh()
+            return
+        now = time.monotonic()
+        if now - self._logged_at >= self.log_interval:
+            self._logged_at = now
+            of = "" if limit is None else f" of at most {limit}"
+            self.stream.write(
+                f"{self.description}: physics fit ({what}): {nfev} residual "
+                f"evaluations{of}\n"
+            )
+            self.stream.flush()
 
     def model_done(self, name, fit_time, n_epochs):
         epochs = "" if n_epochs is None else f", {n_epochs} epochs"
@@ -264,8 +377,10 @@ class ProgressBars:
     def close(self):
         """Stop counting and close the bars, leaving the terminal clean."""
         self._stop.set()
-        if self._thread is not None:
+        if self._thread.is_alive():
             self._thread.join()
+        if self.physics is not None:
+            self.physics.close()
         if self.epochs is not None:
             self.epochs.update(self.sink.count() - self.epochs.n)
             if self.epochs.total:  # early stopping ended sooner: the bar is done

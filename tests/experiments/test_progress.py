@@ -99,3 +99,72 @@ def test_on_a_terminal_both_bars_know_their_totals_from_the_start():
     bars.close()
     out = stream.buffer.getvalue()
     assert out.endswith("\n")  # what follows is not printed over the bars
+
+
+# -- a physics fit's evaluations --------------------------------------------------
+
+
+def _line_model():
+    from skhybrid.domain import ParametricModel
+
+    def line(X, *, a, b, xp=np):
+        return a * X[:, :1] + b
+
+    return ParametricModel(line, {"a": 0.0, "b": 0.0}, max_nfev=50)
+
+
+def test_fit_progress_reports_every_evaluation_against_max_nfev():
+    from skhybrid.domain import fit_progress
+
+    X = np.linspace(0, 1, 30)[:, None]
+    seen = []
+    with fit_progress(lambda *event: seen.append(event)):
+        _line_model().fit(X, 2 * X[:, 0] + 1)
+    assert [n for n, _, _ in seen] == list(range(1, len(seen) + 1))
+    assert {(limit, records) for _, limit, records in seen} == {(50, 1)}
+    # Outside the context nothing is reported.
+    _line_model().fit(X, 2 * X[:, 0] + 1)
+    assert len(seen) == len({n for n, _, _ in seen})
+
+
+def test_fit_progress_refuses_a_hook_that_is_not_callable():
+    import pytest
+
+    from skhybrid.domain import fit_progress
+
+    with pytest.raises(TypeError, match="hook=3"), fit_progress(3):
+        pass
+
+
+def test_a_physics_fit_shows_its_evaluations_of_max_nfev_and_its_segments(tmp_path):
+    from skhybrid.domain import fit_progress
+    from skhybrid.experiments._progress import ProgressBars, physics_hook
+
+    stream = _Terminal(tty=True)
+    bars = ProgressBars(2, "toy", n_epochs=None, stream=stream)
+    X = np.linspace(0, 1, 30)[:, None]
+    with fit_progress(physics_hook(bars.sink, "physics on segments of 100 samples")):
+        _line_model().fit(X, 2 * X[:, 0] + 1)
+    bars._update()
+    assert bars.physics.total == 50 and bars.physics.n >= 1
+    assert "physics on segments of 100 samples, 1 record" in str(bars.physics)
+    # Epochs and physics events share the sink: neither counts as the other.
+    assert bars.sink.poll()[0] == 0
+    bars.close()
+
+
+def test_without_a_terminal_a_long_physics_fit_logs_a_line():
+    from skhybrid.experiments._progress import ProgressBars, physics_event
+
+    stream = _Terminal(tty=False)
+    bars = ProgressBars(1, "toy", stream=stream, log_interval=0.0)
+    bars.sink.emit(physics_event("physics on whole records", 7, 400, 3))
+    bars._update()
+    bars.sink.emit("dense")  # an epoch
+    bars.close()
+    assert stream.buffer.getvalue().splitlines() == [
+        (
+            "toy: physics fit (physics on whole records, 3 records): 7 residual "
+            "evaluations of at most 400"
+        )
+    ]

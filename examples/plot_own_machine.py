@@ -90,9 +90,7 @@ physics = StateSpaceModel(
     {"k": 2.0, "c": 1.0, "fc": 0.1},  # a rough start
     state_names=["position", "velocity"],
     observed=["position"],
-    time="continuous",
-    dt=DT,
-    n_init=10,
+    time="continuous",  # dt and n_init: the spec's (said once)
     vectorized=True,
 )
 

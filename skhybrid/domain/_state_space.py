@@ -48,6 +48,9 @@ from skhybrid.utils._sklearn_compat import (
 
 __all__ = ["StateSpaceModel"]
 
+#: Initialisation window of ``fit_simulation`` where ``n_init`` is None.
+DEFAULT_N_INIT = 20
+
 
 class StateSpaceModel(
     _SimulationFitMixin, _InitialStateMixin, _IntegratorMixin, DomainModel
@@ -146,9 +149,11 @@ default=None
         nonlinear physics (a backlash, friction) can stop in a local minimum far
         from a poor guess: a guess consistent with the measurements (a motor angle
         of ``gear_ratio`` times the load angle) helps.
-    n_init : int, default=20
+    n_init : int or None, default=None
         Samples at the start of each record from which ``fit_simulation``
-        estimates its initial state.
+        estimates its initial state. None takes 20, or, where a
+        :class:`~skhybrid.experiments.SystemSpec` fits the model, the spec's
+        ``n_init`` (so a machine's initialisation window is said once).
     estimate_observed : bool, default=True
         Whether the initial values of the observed states are fitted too, starting
         from their measured values (robust to measurement noise), or held at the
@@ -294,7 +299,7 @@ default=None
         "input_points": [Interval(Integral, 1, None, closed="left")],
         "solver_options": [dict, None],
         "initial_state": ["array-like", callable, None],
-        "n_init": [Interval(Integral, 1, None, closed="left")],
+        "n_init": [Interval(Integral, 1, None, closed="left"), None],
         "estimate_observed": ["boolean"],
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
         "vectorized": ["boolean"],
@@ -319,7 +324,7 @@ default=None
         input_points=1,
         solver_options=None,
         initial_state=None,
-        n_init=20,
+        n_init=None,
         estimate_observed=True,
         identifiability_tol=1e-6,
         fixed=(),
@@ -370,6 +375,11 @@ default=None
         self.continuation = continuation
         self.starts = starts
         self.starts_nfev = starts_nfev
+
+    @property
+    def _init_window(self):
+        """``n_init``, or its default where it is None."""
+        return DEFAULT_N_INIT if self.n_init is None else int(self.n_init)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -95,10 +95,10 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                     f"inputs[{i}] holds {len(u)} time steps but outputs[{i}] "
                     f"{len(y)}; each record's inputs and outputs must be aligned."
                 )
-            if len(y) <= self.n_init:
+            if len(y) <= self._init_window:
                 raise ValueError(
                     f"outputs[{i}] holds {len(y)} time steps, not more than "
-                    f"n_init={self.n_init}: nothing is left to simulate."
+                    f"n_init={self._init_window}: nothing is left to simulate."
                 )
         if self.jac == "autograd":
             raise ValueError(
@@ -149,7 +149,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         self.rmse_ = float(np.sqrt(np.mean(err**2)))
         self.noise_model_ = None
         if self.noise_model is not None:
-            n_init = min(self.n_init, T)
+            n_init = min(self._init_window, T)
             residuals = np.concatenate(
                 [(Y[i] - Y_sim[i])[n_init : lengths[i]] for i in range(len(lengths))]
             )
@@ -181,7 +181,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 )
 
     def _simulate_records(self, U, Y, params, structure):
-        n_init = min(self.n_init, Y.shape[1])
+        n_init = min(self._init_window, Y.shape[1])
         x0 = self._estimate_x0(Y[:, :n_init], U[:, :n_init], params, structure)
         with np.errstate(all="ignore"):
             out, _ = self._run(x0, U, params, structure[1], np)

@@ -101,7 +101,8 @@ lists of them
     U, Y = (list(u), list(y)) if several else ([u], [y])
     if not hasattr(model, "fit_simulation"):
         return model.fit(U if several else u, Y if several else y)
-    if segment is not None and segment <= model.n_init:
+    n_init = getattr(model, "n_init", None)
+    if segment is not None and n_init is not None and segment <= n_init:
         raise ValueError(
             f"segment={segment} must exceed the model's n_init={model.n_init}: a "
             "segment's first n_init samples only estimate its initial state."

@@ -702,18 +702,22 @@ class SystemSpec:
         Returns
         -------
         physics : estimator
-            Unfitted; with the spec's ``dt`` where it takes a ``dt`` and has
-            none, and, with ``physics_starts``, its ``params`` updated by the
+            Unfitted; with the spec's ``dt`` and ``n_init`` where it takes them
+            and has none, and, with ``physics_starts``, its ``params`` updated by the
             first start and its ``starts`` the others.
         """
         if callable(self.physics) and not hasattr(self.physics, "get_params"):
             base = self.physics(U, Y, dt)
         else:
             base = clone(self.physics)
-        # The sample period is said once, on the spec: a physics that takes a
-        # ``dt`` and was given none gets the spec's.
-        if base.get_params(deep=False).get("dt", 0) is None:
+        # The sample period and the initialisation window are said once, on the
+        # spec: a physics that takes a ``dt`` or an ``n_init`` and was given
+        # none gets the spec's.
+        given = base.get_params(deep=False)
+        if given.get("dt", 0) is None:
             base = clone(base).set_params(dt=float(dt))
+        if given.get("n_init", 0) is None:
+            base = clone(base).set_params(n_init=int(self.n_init))
         if not self.physics_starts:
             return base
         _check_takes_starts(base)  # a callable's physics is seen only now

@@ -623,6 +623,42 @@ def test_the_spec_hands_its_sample_period_to_a_physics_without_one(machine):
     assert spec.make_physics(U, Y, spec.sample_period()).dt == 0.05
 
 
+def test_the_spec_hands_its_initialisation_window_to_a_physics_without_one(machine):
+    from skhybrid.domain import StateSpaceModel
+
+    def spring(x, u, *, xp, k, c):
+        return xp.stack([x[:, 1], -k * x[:, 0] - c * x[:, 1] + u[:, 0]], axis=1)
+
+    physics = StateSpaceModel(
+        spring,
+        {"k": 1.0, "c": 0.4},
+        state_names=["position", "velocity (latent)"],
+        observed=["position"],
+    )
+    assert physics.n_init is None  # said once, on the spec
+    spec = machine.make_spec(physics=physics, hybrids=None, n_init=12)
+    U, Y = spec.estimation_records()
+    made = spec.make_physics(U, Y, spec.sample_period())
+    assert made.n_init == 12 and physics.n_init is None  # the user's object kept
+    # A physics given its own window keeps it.
+    spec = machine.make_spec(physics=physics.set_params(n_init=7), hybrids=None)
+    assert spec.make_physics(U, Y, spec.sample_period()).n_init == 7
+
+
+def test_a_state_space_model_without_n_init_starts_from_20_samples_alone():
+    from skhybrid.domain import StateSpaceModel
+
+    def decay(x, u, *, xp, a):
+        return a * x + u
+
+    model = StateSpaceModel(
+        decay, {"a": 0.5}, state_names=["x"], observed=["x"], time="discrete"
+    )
+    u = np.zeros((20, 1))
+    with pytest.raises(ValueError, match="not more than n_init=20"):
+        model.fit_simulation(u, np.ones((20, 1)))
+
+
 def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
     machine, tmp_path, monkeypatch
 ):

@@ -12,6 +12,7 @@ import numpy as np
 
 from skhybrid.experiments._claims import check_claims
 from skhybrid.experiments._measured_report import measured_figure, measured_section
+from skhybrid.experiments._paper_stochastic import band_figure, stochastic_html
 
 __all__ = ["write_report"]
 
@@ -66,6 +67,10 @@ def _figures(result, out_dir):
         path = out_dir / f"{name}_acf_{_slug(model)}.png"
         disp.figure_.savefig(path, dpi=90)
         figures.append((f"Residual ACF, {model}", path))
+    band = band_figure(result, out_dir / f"{name}_band.png")
+    if band is not None:
+        chosen = result.stochastic["model"]
+        figures.append((f"The chosen model's band, {chosen}", band))
     return figures
 
 
@@ -239,6 +244,7 @@ def _section(result, figures, claims):
     white_formats = {c: ".4g" for c in white_columns if c.endswith(" Q")}
     white_formats.update({c: ".3f" for c in white_columns if c.endswith("noise")})
     parts.append(_table(_whiteness_rows(result), white_columns, white_formats))
+    parts.append(stochastic_html(getattr(result, "stochastic", {})))
     params = _params_rows(result)
     if params:
         parts.append("<h3>Fitted physical parameters</h3>")
@@ -341,6 +347,7 @@ def write_report(results, out_dir, *, command=None, wall_time=None):
             "noise_type": getattr(result.splits["train"], "noise_type", None),
             "noise": np.asarray(result.splits["train"].noise).tolist(),
             "claims": claims,
+            "stochastic": getattr(result, "stochastic", {}),
             "params": result.params,
             "fits": result.fits,
             "results": result.rows,

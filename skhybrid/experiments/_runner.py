@@ -12,6 +12,7 @@ from joblib.parallel import get_active_backend
 
 from skhybrid.diagnostics import ljung_box_test, rmse_db
 from skhybrid.experiments._fitting import interrupts_raise, n_epochs, physical_params
+from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT, paper_stochastic
 from skhybrid.experiments._progress import (
     ProgressBars,
     attach_epoch_logger,
@@ -61,6 +62,13 @@ class ExperimentResult:
         Fit time, epochs and warnings of each model.
     hull : dict of str to float
         Share of each test split's rows outside the convex hull of the training rows.
+    validation : Bunch or None
+        New episodes like the training split's, predicted by every model (its
+        predictions under ``predictions["validation"]``), never scored as a test:
+        the chosen model and its noise model come from them.
+    stochastic : dict
+        The chosen model's stochastic part (see
+        :func:`~skhybrid.experiments._paper_stochastic.paper_stochastic`).
     wall_time : float
         Seconds for the whole run.
     """
@@ -70,10 +78,13 @@ class ExperimentResult:
         self.settings = settings
         self.splits = splits
         self.predictions = {name: {} for name in splits if name != "train"}
+        self.predictions[VALIDATION_SPLIT] = {}
         self.rows = []
         self.params = {}
         self.fits = {}
         self.hull = {}
+        self.validation = None
+        self.stochastic = {}
         self.wall_time = float("nan")
 
     @property
@@ -356,6 +367,7 @@ def run_experiment(
     else:
         splits = system.make_splits(settings)
         result = ExperimentResult(system, settings, splits)
+        result.validation = system.validation_split(settings)
         for split in result.test_splits:
             result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
         result.hull = _hull_shares(splits, settings.n_steps)
@@ -436,6 +448,7 @@ def run_experiment(
                 tests = [
                     (split, result.splits[split].X) for split in result.test_splits
                 ]
+                tests.append((VALIDATION_SPLIT, result.validation.X))
                 yield delayed(_fit_one)(name, zoo[name], train.X, train.y, tests)
 
     try:
@@ -462,6 +475,8 @@ def run_experiment(
             k: preds[k] for k in ["oracle", *zoo] if k in preds
         }
     _score(result)
+    if not measured:
+        result.stochastic = paper_stochastic(result)
     result.wall_time = time.perf_counter() - start
     return result
 
@@ -497,7 +512,10 @@ def _record(result, name, out, folder):
         result.predictions[split][name] = pred
     if folder is not None:
         scores = [
-            row for split in predictions for row in result.model_rows(split, name)
+            row
+            for split in predictions
+            if split in result.test_splits
+            for row in result.model_rows(split, name)
         ]
         folder.save_model(
             result.store_key,

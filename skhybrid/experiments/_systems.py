@@ -3,7 +3,13 @@
 The systems themselves are modules of the catalogue, :mod:`skhybrid.benchmarks`.
 """
 
+from dataclasses import replace
+
 __all__ = ["System"]
+
+#: Offset of the validation episodes' seed from the run's (the test splits of
+#: the catalogue's systems use 1000 and 2000).
+VALIDATION_SEED = 3000
 
 
 class System:
@@ -78,6 +84,28 @@ class System:
             ``{label: unfitted domain model}``.
         """
         raise NotImplementedError
+
+    def validation_split(self, settings):
+        """New episodes like the training split's, which no fit reads.
+
+        The chosen model's noise model is fitted on its residuals there (the
+        report's stochastic part); ``make_splits``'s training split at another
+        seed, as long as a test split.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            Sizes and seed.
+
+        Returns
+        -------
+        validation : Bunch
+            As a split of :meth:`make_splits`.
+        """
+        seed = (settings.seed + VALIDATION_SEED) % 2**32
+        return self.make_splits(replace(settings, seed=seed, n_train=settings.n_test))[
+            "train"
+        ]
 
     def split_descriptions(self):
         """What each split of the system holds, in words.

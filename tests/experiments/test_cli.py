@@ -113,6 +113,29 @@ def quick_run(tmp_path_factory):
     return out
 
 
+def test_quick_run_reports_the_chosen_models_stochastic_part(quick_run):
+    # The model chosen on the validation split (new episodes no fit read) is
+    # the refit physics, the true equations: under the simulator's white
+    # measurement noise its band covers close to 95 % of each test split.
+    system = json.loads((quick_run / "results.json").read_text())["systems"]["pendulum"]
+    part = system["stochastic"]
+    scores = part["validation_rmse_over_oracle"]
+    assert part["model"] == min(scores, key=scores.get) == "physics (refit)"
+    assert set(scores) == set(MODELS) - {"oracle"}
+    for output, entry in part["outputs"].items():
+        assert entry["noise"]["fitted"]
+        assert entry["noise"]["std"] == pytest.approx(0.01, rel=0.6), output
+        assert 0 <= entry["validation"]["ljung_box_pvalue"] <= 1
+        for split in ("interpolation", "extrapolation"):
+            assert entry["tests"][split]["coverage"] == pytest.approx(0.95, abs=0.03)
+    report = (quick_run / "report.html").read_text()
+    assert "The stochastic part of the chosen model" in report
+    assert (quick_run / "pendulum_band.png").is_file()
+    # The validation split is no test split: it has no rows of its own.
+    rows = (quick_run / "results.csv").read_text()
+    assert ",validation," not in rows
+
+
 def test_quick_run_writes_results(quick_run):
     with (quick_run / "results.csv").open() as f:
         rows = list(csv.DictReader(f))

@@ -3,8 +3,9 @@
 The release checklist's check that every figure of record in docs/results.md
 follows from its documented command, **without looking at a test record**: for
 each benchmark it runs the selection only (the built-in spec with
-``tests=None``, through :func:`skhybrid.experiments.run_system`; seeds 0, 1, 2,
-each a full cross-validated selection), then compares
+``tests=None``, through :func:`skhybrid.experiments.run_system`; seeds 0, 1, 2:
+the cross-validated search at seed 0, its choices refitted at each seed), then
+compares
 
 - the models chosen at the seeds,
 - each seed's cross-validated RMSE of its chosen model (within 2 %, or within

@@ -507,6 +507,7 @@ def main(argv=None):
         return 2
     except KeyboardInterrupt:
         folder.lock.release()
+        folder.remove_if_unused()
         sys.stderr.write("\nskhybrid: interrupted before training\n")
         return 130
     try:
@@ -521,6 +522,7 @@ def main(argv=None):
         return 130
     finally:
         folder.lock.release()
+        folder.remove_if_unused()
 
 
 class _Plan:

@@ -199,6 +199,7 @@ def _run_folder(
         raise
     finally:
         folder.lock.release()
+        folder.remove_if_unused()
     return run.summary()
 
 

@@ -210,6 +210,8 @@ class RunFolder:
     def __init__(self, path):
         self.path = Path(path)
         self.lock = FolderLock(self.path)
+        #: Whether :meth:`prepare` made the folder (see :meth:`remove_if_unused`).
+        self.created = False
 
     # -- before any training ---------------------------------------------------------
     def prepare(self):
@@ -218,6 +220,7 @@ class RunFolder:
         if path.exists() and not path.is_dir():
             raise RunFolderError(f"--out {path} is a file, not a folder")
         try:
+            self.created = not path.exists()
             path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise RunFolderError(
@@ -240,6 +243,20 @@ class RunFolder:
                 f"--out {path} is not writable: {exc.strerror or exc}"
             ) from None
         return self
+
+    def remove_if_unused(self):
+        """Remove the folder :meth:`prepare` made if nothing was written to it.
+
+        A run refused after the folder was made (a spec that does not load, a
+        Ctrl-C before training) leaves no empty folder behind; a folder that
+        existed before, or holds anything, is kept.
+        """
+        if not self.created or self.lock.held:
+            return
+        try:
+            self.path.rmdir()  # only an empty folder
+        except OSError:
+            pass
 
     def read_manifest(self):
         """The ``run.json`` of the run in the folder, or None."""

@@ -267,6 +267,13 @@ def test_cli_spec_errors_are_one_line(machine, tmp_path, capsys):
         assert main(["run", *extra, "--out", str(out)]) == 2, extra
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and words in err, (extra, err)
+        # A refused run leaves no folder behind...
+        assert not out.exists(), extra
+    # ... and one that existed before is kept as it was.
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    assert main(["run", "--system", "toy_machine", "--out", str(kept)]) == 2
+    assert kept.is_dir() and not any(kept.iterdir())
     assert machine.TEST_READS == []
 
 

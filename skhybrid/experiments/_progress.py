@@ -239,8 +239,8 @@ class ProgressBars:
     On a terminal, three tqdm bars: models of the run's total, epochs of the
     networks (of their largest possible total where it is known), and the
     latest physics fit's residual evaluations of its ``max_nfev``, with its
-    records or segments. Elsewhere (a log file, CI), one line per finished
-    model, and a line on a physics fit's evaluations every
+    records or segments. Elsewhere (a log file, CI), a line when the fits
+    start, one per finished model, and a line on a physics fit's evaluations every
     ``log_interval`` seconds while one runs.
 
     Parameters
@@ -304,6 +304,11 @@ class ProgressBars:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._watch, daemon=True)
         if not self.interactive:
+            # A first line at once: a log shows the run has started.
+            done = f", {n_done} already finished" if n_done else ""
+            models = f"{n_models} model{'s' if n_models != 1 else ''}"
+            self.stream.write(f"{description}: {models} to fit{done}\n")
+            self.stream.flush()
             self._thread.start()
             return
         self.models = tqdm(

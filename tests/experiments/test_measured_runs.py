@@ -394,7 +394,12 @@ def test_progress_counts_the_zoos_models(tmp_path, capsys, axis):
     # one bar per seed (the first searches, each refits).
     lines = [line for line in err.splitlines() if line.startswith("emps seed ")]
     assert [line.split(" models: ")[0] for line in lines] == [
-        f"emps seed {s}: {i}/4" for s in (0, 1) for i in range(1, 5)
+        text
+        for s in (0, 1)
+        for text in [
+            f"emps seed {s}: 4 models to fit",  # at once: the run has started
+            *(f"emps seed {s}: {i}/4" for i in range(1, 5)),
+        ]
     ]
     assert "\r" not in err
 

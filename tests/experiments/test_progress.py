@@ -81,6 +81,7 @@ def test_without_a_terminal_one_line_per_finished_model():
     bars.model_done("physics", 0.5, None)
     bars.close()
     assert stream.buffer.getvalue().splitlines() == [
+        "pendulum: 3 models to fit, 1 already finished",
         "pendulum: 2/3 models: dense (12.3 s, 40 epochs)",
         "pendulum: 3/3 models: physics (0.5 s)",
     ]
@@ -163,6 +164,7 @@ def test_without_a_terminal_a_long_physics_fit_logs_a_line():
     bars.sink.emit("dense")  # an epoch
     bars.close()
     assert stream.buffer.getvalue().splitlines() == [
+        "toy: 1 model to fit",
         (
             "toy: physics fit (physics on whole records, 3 records): 7 residual "
             "evaluations of at most 400"

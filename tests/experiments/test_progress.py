@@ -168,5 +168,5 @@ def test_without_a_terminal_a_long_physics_fit_logs_a_line():
         (
             "toy: physics fit (physics on whole records, 3 records): 7 residual "
             "evaluations of at most 400"
-        )
+        ),
     ]

@@ -43,11 +43,15 @@ ESTIMATORS = [
 ]
 
 
+#: Estimators fitted on whole records (X a record's inputs, y its outputs).
+_RECORD_MODELS = {"NARXSimulator", "PhysicsCorrection", "WienerHammersteinModel"}
+
+
 def _data(est, seed):
     if type(est).__name__ == "PendulumModel":
         data = make_pendulum(n_samples=300, random_state=seed)
         return data.X, data.y
-    if type(est).__name__ == "WienerHammersteinModel":  # whole records, one output
+    if type(est).__name__ in _RECORD_MODELS:  # whole records, one output
         rng = np.random.default_rng(seed)
         u = rng.normal(size=(160, 1))
         return u, np.tanh(np.convolve(u[:, 0], [0.0, 0.5, 0.3])[:160])

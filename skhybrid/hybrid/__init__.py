@@ -10,19 +10,27 @@ The decomposition ``Y = f(X; theta) + NN(X; W) + N(phi)`` of the method paper:
   network weights trained jointly in torch;
 - :class:`StateSpaceHybridRegressor`: physics state equations plus a network
   correction and an initial-state encoder, trained by the simulation error;
+- :class:`NARXSimulator`: a one-step regressor of past outputs and inputs,
+  simulated in free run (a linear ARX or a dense NARX);
+- :class:`PhysicsCorrection`: a fitted physics' free run plus a static
+  regressor of its own recent simulated output and the inputs;
 - :class:`GaussianNoise` and :class:`AutoRegressiveNoise`: the stochastic term.
 """
 
 from skhybrid.hybrid._boosting import HybridBoostingRegressor, StageWhiteness
 
-# The measured zoo's static corrections (private estimators) and the state-space
-# hybrid's sub-sequence count, re-exported (not in __all__) for
-# skhybrid.experiments, which may not import a private module.
+# The private names of NARXSimulator and PhysicsCorrection (aliases, for run
+# folders pickled under them and code that imports them), the measured zoo's
+# _TransformedInputs and the state-space hybrid's sub-sequence count,
+# re-exported (not in __all__) for skhybrid.experiments, which may not import a
+# private module.
 from skhybrid.hybrid._correction import _NARXSimulator as _NARXSimulator
 from skhybrid.hybrid._correction import _PhysicsCorrection as _PhysicsCorrection
 from skhybrid.hybrid._correction import _TransformedInputs as _TransformedInputs
 from skhybrid.hybrid._ensemble import HybridEnsembleRegressor
+from skhybrid.hybrid._narx import NARXSimulator
 from skhybrid.hybrid._noise import AutoRegressiveNoise, GaussianNoise
+from skhybrid.hybrid._physics_correction import PhysicsCorrection
 from skhybrid.hybrid._state_space import MIN_SUBSEQUENCES as MIN_SUBSEQUENCES
 from skhybrid.hybrid._state_space import StateSpaceHybridRegressor
 
@@ -31,6 +39,8 @@ __all__ = [
     "GaussianNoise",
     "HybridBoostingRegressor",
     "HybridEnsembleRegressor",
+    "NARXSimulator",
+    "PhysicsCorrection",
     "StageWhiteness",
     "StateSpaceHybridRegressor",
 ]

@@ -9,9 +9,11 @@ with its reason. Keep it empty unless an issue allows an entry.
 """
 
 import numpy as np
+from sklearn.linear_model import Ridge
 
 # Stages of the hybrid compositions (imported here, used in FAST_PARAMS below).
 from skhybrid.domain import LinearStateSpaceModel, StateSpaceModel
+from skhybrid.hybrid import _TransformedInputs
 from skhybrid.neural import DenseRegressor
 from skhybrid.utils.discovery import all_estimators
 
@@ -61,6 +63,42 @@ class _AffineStep:
 affine_step = _AffineStep()
 
 
+class _SumColumns:
+    """``u.sum(axis=1, keepdims=True)``: any number of input columns as one.
+
+    With a fixed ``repr`` for the same reason as :class:`_AffineSum`.
+    """
+
+    __name__ = "sum_columns"
+
+    def __call__(self, inputs):
+        return np.sum(np.asarray(inputs, dtype=float), axis=1, keepdims=True)
+
+    def __repr__(self):
+        return "sum_columns"
+
+
+def _fitted_affine_physics():
+    """A fitted one-state ``affine_step`` physics fed the sum of any inputs.
+
+    A fitted model reads the number of input columns it was fitted on; the
+    common checks fit on data of many widths, which the sum makes one. The
+    record is the physics' own free run, so the fit stops at once.
+    """
+    u = np.sin(0.3 * np.arange(40.0))[:, None]
+    x = np.zeros((40, 1))
+    for t in range(39):
+        x[t + 1] = 0.5 * x[t] + 0.1 * u[t]
+    physics = StateSpaceModel(
+        rhs=affine_step,
+        params={"a": 0.5, "b": 0.1},
+        state_names=["x"],
+        observed=["x"],
+        time="discrete",
+    ).fit_simulation(u, x)
+    return _TransformedInputs(physics, _SumColumns())
+
+
 FAST_PARAMS = {
     # Hybrid compositions: a linear physics model, then a tiny dense network.
     "HybridBoostingRegressor": dict(
@@ -101,6 +139,10 @@ FAST_PARAMS = {
         lr=0.01,
         random_state=0,
     ),
+    # The static corrections: a linear one-step regressor; PhysicsCorrection's
+    # physics is fitted already (kept as it is by clone).
+    "NARXSimulator": dict(regressor=Ridge()),
+    "PhysicsCorrection": dict(physics=_fitted_affine_physics(), regressor=Ridge()),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),
     "WienerHammersteinModel": dict(order=2, n_knots=4, n_starts=1, max_nfev=5),
     "StateSpaceModel": dict(

@@ -112,7 +112,7 @@ def test_estimator_conventions(fitted):
     copy = clone(fitted["correction"])
     assert copy.n_steps == 3 and not hasattr(copy, "model_")
     assert copy.physics is fitted["correction"].physics  # the physics is kept as is
-    with pytest.raises(ValueError, match="n_steps must be an int >= 1"):
+    with pytest.raises(ValueError, match="'n_steps' parameter of NARXSimulator"):
         _NARXSimulator(Ridge(), 0).fit(*_record())
     with pytest.raises(ValueError, match="outputs must hold one output"):
         _PhysicsCorrection(fitted["transformed"], Ridge()).fit(
@@ -126,7 +126,9 @@ def test_correction_adds_its_static_map_to_the_physics_free_run(fitted):
     y_phys = np.ravel(corr.physics.simulate(u, y[:20]))
     sim = corr.simulate(u, y[:20])
     assert sim.shape == (len(u), 1)
-    assert_allclose(sim[:, 0], corr.correct(u, y_phys))
+    # The measured window, then the corrected free run (simulate's contract).
+    assert_allclose(sim[:20], y[:20])
+    assert_allclose(sim[20:, 0], corr.correct(u, y_phys)[20:])
 
 
 def test_transformed_inputs_feed_the_transform_and_read_through():

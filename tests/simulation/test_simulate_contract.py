@@ -88,6 +88,10 @@ def _fit(est):
         with pytest.warns(ConvergenceWarning, match="max_nfev=5"):
             est = clone(est).fit(list(U_seq), list(X_seq[:, :, 0]))
         return est, 1, 1, N_INPUTS
+    if name == "NARXSimulator":  # fitted on whole records
+        return est.fit(list(U_seq), list(X_seq)), est.n_steps, N_STATES, N_INPUTS
+    if name == "PhysicsCorrection":  # whole records, one output
+        return est.fit(list(U_seq), list(X_seq[:, :, :1])), 1, 1, N_INPUTS
     n_steps = est.get_params(deep=False).get("n_steps", 1)
     X, y = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(list(X_seq), list(U_seq))
     return est.fit(X, y), n_steps, N_STATES, N_INPUTS

@@ -44,7 +44,7 @@ from skhybrid.experiments._fitting import (
 from skhybrid.experiments._progress import attach_epoch_logger, physics_hook
 from skhybrid.experiments._spec import pieces_per_record, records_digest
 from skhybrid.experiments._store import _write_atomic
-from skhybrid.hybrid import _NARXSimulator, _PhysicsCorrection, _TransformedInputs
+from skhybrid.hybrid import NARXSimulator, PhysicsCorrection, _TransformedInputs
 from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
 
 __all__ = [
@@ -296,12 +296,12 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
 
 
 def _fit_narx(make_regressor, n, U, Y, ctx, deps, start):
-    model = _watch(_NARXSimulator(make_regressor(ctx), n), ctx)
+    model = _watch(NARXSimulator(make_regressor(ctx), n), ctx)
     return model.fit(list(U), list(Y))
 
 
 def _fit_correction(make_regressor, n, U, Y, ctx, deps, start):
-    model = _PhysicsCorrection(
+    model = PhysicsCorrection(
         deps["physics"], make_regressor(ctx), n_steps=n, n_init=ctx.n_init
     )
     return _watch(model, ctx).fit(list(U), list(Y))

@@ -509,6 +509,20 @@ def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
     from skhybrid.domain import StateSpaceModel
 
     assert type(physics) is StateSpaceModel
+    # Every model of the family is a public estimator of skhybrid.
+    import skhybrid.domain
+    import skhybrid.hybrid
+
+    public = {
+        getattr(module, name)
+        for module in (skhybrid.domain, skhybrid.hybrid)
+        for name in module.__all__
+    }
+    for name in summary["test_rmse"]["test"]:
+        model = load_fitted(out, seed=0, model=name)
+        assert type(model) in public, (name, type(model))
+        pred = model.simulate(u, y[:10])
+        assert np.all(np.isfinite(np.ravel(pred)[10:])), name
     with pytest.raises(ValueError, match="seed must be one of the run's seeds"):
         load_fitted(out, seed=5)
     with pytest.raises(ValueError, match="model must be one of"):

@@ -35,7 +35,7 @@ def test_it_compares_the_choice_the_cv_figures_and_the_seal(benchmark_script):
     record = {
         "chosen": {"0": "physics", "1": "physics"},
         "cv_rmse": {"0": 1.00, "1": 1.10},
-        "selection_sha256": "a" * 64,
+        "choices_sha256": "a" * 64,
     }
     lines, failed = check.compare(
         "emps",
@@ -58,7 +58,31 @@ def test_it_compares_the_choice_the_cv_figures_and_the_seal(benchmark_script):
     )
 
 
-def test_a_benchmark_without_a_record_says_so(benchmark_script, capsys):
+def test_a_benchmark_without_a_record_says_so(benchmark_script, capsys, monkeypatch):
     check = benchmark_script("check_measured_reference.py")
+    monkeypatch.setattr(check, "REFERENCE", {})
     assert check.main(["--data", "anywhere", "--only", "emps"]) == 0
     assert "emps: no release run recorded yet" in capsys.readouterr().out
+
+
+def test_the_choices_hash_leaves_out_the_provenance_only(benchmark_script, tmp_path):
+    # A later commit changes the seal (it hashes the commit and the kernels),
+    # not the choices the check compares.
+    check = benchmark_script("check_measured_reference.py")
+    selection = {"system": {"name": "emps"}, "seeds": [{"chosen_model": "physics"}]}
+    hashes = []
+    for commit, chosen in (("aaa", "physics"), ("bbb", "physics"), ("aaa", "ARX")):
+        out = tmp_path / f"{commit}-{chosen}"
+        out.mkdir()
+        sealed = dict(selection, provenance={"commit": commit})
+        sealed["seeds"] = [{"chosen_model": chosen}]
+        (out / "selection.json").write_text(json.dumps({"selection": sealed}))
+        hashes.append(check.choices_sha256(out))
+    assert hashes[0] == hashes[1] != hashes[2]
+
+
+def test_every_record_has_three_seeds_and_a_choices_hash(benchmark_script):
+    check = benchmark_script("check_measured_reference.py")
+    for system, record in check.REFERENCE.items():
+        assert set(record["chosen"]) == set(record["cv_rmse"]) == {"0", "1", "2"}
+        assert len(record["choices_sha256"]) == 64, system

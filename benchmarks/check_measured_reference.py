@@ -100,6 +100,20 @@ REFERENCE = {
         "choices_sha256": "e879b1c53e6f7804088b3a0df360458a89b98577e62fe0a482412a1b2c2082e6",  # noqa: E501
         "selection_sha256": "9047aad7b3f938f9820d2f056cb20fd6538ee39229fb5f41fde52ee3b18af133",  # noqa: E501
     },
+    "wiener-hammerstein": {
+        "chosen": {
+            "0": "physics + linear",
+            "1": "physics + linear",
+            "2": "physics + linear",
+        },
+        "cv_rmse": {
+            "0": 0.2779793351232822,
+            "1": 0.2779793351232822,
+            "2": 0.2779793351232822,
+        },
+        "choices_sha256": "b0926b3cac782caa79343af6babfb1eb133ffaf4c2becabde89a9a8290eab68e",  # noqa: E501
+        "selection_sha256": "db8b24a4cf0bdbfe3df473aa0206d568eaea11a5f78757ab194844f4fe1b8bf8",  # noqa: E501
+    },
 }
 
 #: The CPU kernels a release run is recorded with (this project's machine's):

@@ -32,6 +32,7 @@ from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.experiments._report import write_report
 from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
 from skhybrid.experiments._store import RunFolder
+from skhybrid.hybrid import TransformedInputSimulator
 
 __all__ = [
     "DEFAULT_SEEDS",
@@ -434,8 +435,9 @@ def load_fitted(out, *, seed=0, model=None, system=None):
             f"model must be one of {sorted(finished)}; got model={model!r}."
         )
     estimator = folder.load_estimator(key, finished[model])
-    if getattr(estimator, "transform", False) is None and hasattr(
-        estimator, "estimator"
+    if (
+        isinstance(estimator, TransformedInputSimulator)
+        and estimator.input_transform is None
     ):
         # A physics or state-space hybrid fed the records' own inputs: the
         # public estimator itself, not the run's wrapper around it.

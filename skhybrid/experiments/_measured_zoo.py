@@ -44,7 +44,11 @@ from skhybrid.experiments._fitting import (
 from skhybrid.experiments._progress import attach_epoch_logger, physics_hook
 from skhybrid.experiments._spec import pieces_per_record, records_digest
 from skhybrid.experiments._store import _write_atomic
-from skhybrid.hybrid import NARXSimulator, PhysicsCorrection, _TransformedInputs
+from skhybrid.hybrid import (
+    NARXSimulator,
+    PhysicsCorrection,
+    TransformedInputSimulator,
+)
 from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
 
 __all__ = [
@@ -292,7 +296,7 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
                 ConvergenceWarning,
                 stacklevel=2,
             )
-    return _TransformedInputs(model, system.physics_inputs)
+    return TransformedInputSimulator(model, system.physics_inputs)
 
 
 def _fit_narx(make_regressor, n, U, Y, ctx, deps, start):
@@ -333,7 +337,7 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model.fit_simulation(U, Y)
-    return _TransformedInputs(model, system.physics_inputs)
+    return TransformedInputSimulator(model, system.physics_inputs)
 
 
 # -- the candidates ------------------------------------------------------------------

@@ -14,16 +14,18 @@ The decomposition ``Y = f(X; theta) + NN(X; W) + N(phi)`` of the method paper:
   simulated in free run (a linear ARX or a dense NARX);
 - :class:`PhysicsCorrection`: a fitted physics' free run plus a static
   regressor of its own recent simulated output and the inputs;
+- :class:`TransformedInputSimulator`: a fitted model simulated on a transform
+  of each record's inputs (the Silverbox's ``[u(t), u(t+1)]``);
 - :class:`GaussianNoise` and :class:`AutoRegressiveNoise`: the stochastic term.
 """
 
 from skhybrid.hybrid._boosting import HybridBoostingRegressor, StageWhiteness
 
-# The private names of NARXSimulator and PhysicsCorrection (aliases, for run
-# folders pickled under them and code that imports them), the measured zoo's
-# _TransformedInputs and the state-space hybrid's sub-sequence count,
-# re-exported (not in __all__) for skhybrid.experiments, which may not import a
-# private module.
+# The private names of NARXSimulator, PhysicsCorrection and
+# TransformedInputSimulator (aliases, for run folders pickled under them and code
+# that imports them, such as the measured zoo's _TransformedInputs) and the
+# state-space hybrid's sub-sequence count, re-exported (not in __all__) for
+# skhybrid.experiments, which may not import a private module.
 from skhybrid.hybrid._correction import _NARXSimulator as _NARXSimulator
 from skhybrid.hybrid._correction import _PhysicsCorrection as _PhysicsCorrection
 from skhybrid.hybrid._correction import _TransformedInputs as _TransformedInputs
@@ -33,6 +35,7 @@ from skhybrid.hybrid._noise import AutoRegressiveNoise, GaussianNoise
 from skhybrid.hybrid._physics_correction import PhysicsCorrection
 from skhybrid.hybrid._state_space import MIN_SUBSEQUENCES as MIN_SUBSEQUENCES
 from skhybrid.hybrid._state_space import StateSpaceHybridRegressor
+from skhybrid.hybrid._transformed_inputs import TransformedInputSimulator
 
 __all__ = [
     "AutoRegressiveNoise",
@@ -43,4 +46,5 @@ __all__ = [
     "PhysicsCorrection",
     "StageWhiteness",
     "StateSpaceHybridRegressor",
+    "TransformedInputSimulator",
 ]

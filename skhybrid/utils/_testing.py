@@ -13,7 +13,7 @@ from sklearn.linear_model import Ridge
 
 # Stages of the hybrid compositions (imported here, used in FAST_PARAMS below).
 from skhybrid.domain import LinearStateSpaceModel, StateSpaceModel
-from skhybrid.hybrid import _TransformedInputs
+from skhybrid.hybrid import TransformedInputSimulator
 from skhybrid.neural import DenseRegressor
 from skhybrid.utils.discovery import all_estimators
 
@@ -96,7 +96,7 @@ def _fitted_affine_physics():
         observed=["x"],
         time="discrete",
     ).fit_simulation(u, x)
-    return _TransformedInputs(physics, _SumColumns())
+    return TransformedInputSimulator(physics, _SumColumns())
 
 
 FAST_PARAMS = {
@@ -143,6 +143,10 @@ FAST_PARAMS = {
     # physics is fitted already (kept as it is by clone).
     "NARXSimulator": dict(regressor=Ridge()),
     "PhysicsCorrection": dict(physics=_fitted_affine_physics(), regressor=Ridge()),
+    # Frozen: the same fitted physics, fed the sum of any inputs.
+    "TransformedInputSimulator": dict(
+        estimator=_fitted_affine_physics().estimator, input_transform=_SumColumns()
+    ),
     "ParametricModel": dict(func=affine_sum, params={"a": 0.5, "b": 0.0}),
     "WienerHammersteinModel": dict(order=2, n_knots=4, n_starts=1, max_nfev=5),
     "StateSpaceModel": dict(

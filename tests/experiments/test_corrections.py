@@ -23,7 +23,7 @@ from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.hybrid._correction import (
     _NARXSimulator,
     _PhysicsCorrection,
-    _TransformedInputs,
+    TransformedInputSimulator,
 )
 from skhybrid.model_selection import RecordBlockSplit
 
@@ -53,7 +53,7 @@ def _physics(u, y):
 
 def _fitted():
     u, y = _record()
-    physics = _TransformedInputs(_physics(*_axis()))
+    physics = TransformedInputSimulator(_physics(*_axis()))
     return {
         "narx": _NARXSimulator(Ridge(alpha=1e-6), 2).fit(u, y),
         "correction": _PhysicsCorrection(physics, Ridge(alpha=1e-3), 3, n_init=20).fit(
@@ -134,11 +134,12 @@ def test_correction_adds_its_static_map_to_the_physics_free_run(fitted):
 def test_transformed_inputs_feed_the_transform_and_read_through():
     u, y = _axis()
     physics = _physics(u, y)
-    wrapped = _TransformedInputs(physics, lambda v: 2.0 * np.asarray(v))
+    wrapped = TransformedInputSimulator(physics, lambda v: 2.0 * np.asarray(v))
     assert wrapped.params_ is physics.params_  # fitted attributes read through
     assert_allclose(wrapped.simulate(u, y[:20]), physics.simulate(2.0 * u, y[:20]))
     assert_allclose(with_next_input(u)[:-1, 1], u[1:, 0])
-    assert wrapped.fit() is wrapped
+    assert wrapped.fit(u, y) is wrapped  # validates; the physics is kept
+    assert wrapped.estimator is physics
 
 
 # -- choose, refit, score -------------------------------------------------------------

@@ -22,6 +22,8 @@ import textwrap
 import numpy as np
 import pytest
 
+import skhybrid.domain
+import skhybrid.hybrid
 from skhybrid.domain import StateSpaceModel
 from skhybrid.experiments import SystemSpec, load_fitted, run_system
 from skhybrid.experiments._store import RunFolderError
@@ -146,13 +148,14 @@ LOAD = textwrap.dedent(
 
     out, u, y = sys.argv[1], *np.load(sys.argv[2]).values()
     folder = RunFolder(out)
-    rmse = {}
+    rmse, types = {}, {}
     for name in folder.finished("main-machine-seed-0"):
         model = load_fitted(out, seed=0, model=name)
+        types[name] = type(model).__name__
         pred = np.ravel(model.simulate(u, y[:5]))
         rmse[name] = float(np.sqrt(np.mean((pred[5:] - y[5:, 0]) ** 2)))
     chosen = load_fitted(out, seed=0)
-    print(json.dumps({"rmse": rmse, "chosen": type(chosen).__name__}))
+    print(json.dumps({"rmse": rmse, "types": types, "chosen": type(chosen).__name__}))
     """
 )
 
@@ -200,6 +203,11 @@ def test_a_physics_defined_in_main_loads_in_a_new_session_and_the_seal_repeats(
         expected = by_model[name]["mean"]
         if expected is not None:
             assert rmse == pytest.approx(expected, rel=1e-6), name
+    # A spec with physics_inputs: every model loads as a public estimator (the
+    # physics and its corrections' physics in a TransformedInputSimulator).
+    public = set(skhybrid.domain.__all__) | set(skhybrid.hybrid.__all__)
+    assert set(loaded["types"].values()) <= public, loaded["types"]
+    assert loaded["types"]["physics"] == "TransformedInputSimulator"
 
 
 def test_the_seal_names_callables_by_module_and_qualname():

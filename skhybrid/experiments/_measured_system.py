@@ -18,6 +18,7 @@ from skhybrid.experiments._measured_zoo import (
     N_SPLITS,
     MeasuredContext,
     _rmse,
+    epochs_at_most,
     fit_model,
     zoo,
 )
@@ -333,19 +334,43 @@ class MeasuredSystem:
             A :func:`joblib.delayed` call of
             :func:`~skhybrid.experiments._measured_zoo.fit_model`.
         """
-        U, Y = result.train
-        ctx = MeasuredContext(
-            result.system,
-            U,
-            Y,
-            int(result.n_init),
-            float(result.dt),
-            result.settings.quick,
-            result.settings.seed,
-            cache=result.cache_dir,
-            searched=result.searched.get(name),
-        )
+        ctx = _context(result, searched=result.searched.get(name))
         return delayed(fit_model)(name, model, ctx, deps, sink)
+
+    def epochs_at_most(self, models, result):
+        """The most epochs the networks of ``models`` can train at this seed.
+
+        Parameters
+        ----------
+        models : dict of str to ZooModel
+            The models still to fit.
+        result : MeasuredResult
+            The records and settings, and which models refit a search made at
+            another seed.
+
+        Returns
+        -------
+        n_epochs : int
+            The epoch bar's total (see
+            :func:`~skhybrid.experiments._measured_zoo.epochs_at_most`).
+        """
+        return epochs_at_most(models, _context(result), searched=set(result.searched))
+
+
+def _context(result, searched=None):
+    """What every fit of ``result``'s run reads (its records, settings, cache)."""
+    U, Y = result.train
+    return MeasuredContext(
+        result.system,
+        U,
+        Y,
+        int(result.n_init),
+        float(result.dt),
+        result.settings.quick,
+        result.settings.seed,
+        cache=result.cache_dir,
+        searched=searched,
+    )
 
 
 def _fit_lengths(ctx):

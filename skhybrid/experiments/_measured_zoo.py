@@ -41,7 +41,11 @@ from skhybrid.experiments._fitting import (
     interrupts_raise,
     physical_params,
 )
-from skhybrid.experiments._progress import attach_epoch_logger, physics_hook
+from skhybrid.experiments._progress import (
+    attach_epoch_logger,
+    epoch_budget,
+    physics_hook,
+)
 from skhybrid.experiments._spec import pieces_per_record, records_digest
 from skhybrid.experiments._store import _write_atomic
 from skhybrid.hybrid import (
@@ -55,6 +59,7 @@ __all__ = [
     "MeasuredContext",
     "ZooModel",
     "choose_and_refit",
+    "epochs_at_most",
     "fit_model",
     "pooled_rmse",
     "simulate_records",
@@ -217,6 +222,11 @@ class ZooModel:
         Name of the chosen candidate in the fit record's ``selection``.
     notes : dict, default={}
         What the report says of the model's candidates.
+    epochs : callable or None, default=None
+        ``epochs(ctx)`` returns the most epochs one fit of each candidate can
+        train (:func:`~skhybrid.experiments._progress.epoch_budget` of its
+        networks), in the order of its candidates; None for a model without
+        networks. The progress bar's total (:func:`epochs_at_most`).
     """
 
     fit: object
@@ -225,6 +235,7 @@ class ZooModel:
     deterministic: bool = False
     choice: str = "chosen"
     notes: dict = field(default_factory=dict)
+    epochs: object = None
 
 
 # -- the fits ------------------------------------------------------------------------
@@ -372,6 +383,61 @@ def _hybrids(ctx, records):
     return ctx.system.hybrid_candidates(ctx)
 
 
+# -- the most epochs of each model's candidates (the progress bar's total) ------------
+def _one_dense_epochs(ctx):
+    return [epoch_budget(_dense_regressor(ctx))]
+
+
+def _correction_dense_epochs(ctx):
+    return _one_dense_epochs(ctx) * len(_correction_windows(ctx, {}))
+
+
+def _ensemble_epochs(ctx):
+    return [epoch_budget(_dense_ensemble(ctx))]
+
+
+def _hybrid_epochs(ctx):
+    from skhybrid.hybrid import StateSpaceHybridRegressor
+
+    return [
+        epoch_budget(StateSpaceHybridRegressor(None, **settings))
+        for settings in _hybrids(ctx, {}).values()
+    ]
+
+
+def epochs_at_most(models, ctx, searched=()):
+    """The most epochs the networks of ``models`` can train in one seed's run.
+
+    A searched model fits every candidate on every fold, then refits one on the
+    whole records; a model whose search was made at another seed (``searched``)
+    only refits its choice. Early stopping usually ends sooner: this is an upper
+    bound, the epoch bar's total.
+
+    Parameters
+    ----------
+    models : dict of str to ZooModel
+        The models still to fit.
+    ctx : MeasuredContext
+        The system, its estimation records and the settings.
+    searched : collection of str, default=()
+        Models that refit the choice of a search made at another seed.
+
+    Returns
+    -------
+    n_epochs : int
+        The upper bound (0 where no model trains a network).
+    """
+    n_folds = RecordBlockSplit(N_SPLITS, n_init=ctx.n_init).get_n_splits(list(ctx.U))
+    total = 0
+    for name, model in models.items():
+        per_candidate = [] if model.epochs is None else model.epochs(ctx)
+        if not per_candidate:
+            continue
+        refit = max(per_candidate)
+        total += refit if name in searched else n_folds * sum(per_candidate) + refit
+    return total
+
+
 def zoo(system, quick=False):
     """The measured zoo of ``system``, in the order the report lists it.
 
@@ -406,6 +472,7 @@ def zoo(system, quick=False):
             requires=("linear ARX",),
             choice="n",
             notes={"window": "the linear ARX's"},
+            epochs=_one_dense_epochs,
         ),
         "physics + linear": ZooModel(
             partial(_fit_correction, _correction_ridge),
@@ -419,6 +486,7 @@ def zoo(system, quick=False):
             _correction_windows,
             requires=("physics",),
             choice="n",
+            epochs=_correction_dense_epochs,
         ),
         "physics + dense ensemble": ZooModel(
             partial(_fit_correction, _dense_ensemble),
@@ -429,12 +497,16 @@ def zoo(system, quick=False):
                 "window": "the physics + dense's",
                 "networks": f"{ENSEMBLE_SIZE} dense networks averaged",
             },
+            epochs=_ensemble_epochs,
         ),
     }
     if system.has_hybrids(quick):
         # T and the architecture chosen by the folds, like every candidate.
         models["state-space hybrid"] = ZooModel(
-            _fit_state_space_hybrid, _hybrids, requires=("physics",)
+            _fit_state_space_hybrid,
+            _hybrids,
+            requires=("physics",),
+            epochs=_hybrid_epochs,
         )
     return models
 

@@ -286,6 +286,7 @@ class ProgressBars:
         self.description = description
         self.n_models = n_models
         self.n_done = n_done
+        self.n_epochs = n_epochs
         isatty = getattr(self.stream, "isatty", None)
         self.interactive = bool(isatty and isatty())
         self._dir = None

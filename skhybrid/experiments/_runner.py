@@ -423,15 +423,16 @@ def run_experiment(
     n_threads = max(1, cores // max(workers, 1))
     bars = None
     if progress:
-        budget = None
-        if not measured:  # a measured model's networks are built in its job
-            budget = sum(epoch_budget(zoo[name]) for name in todo) or None
+        if measured:  # its networks are built in each model's search
+            budget = system.epochs_at_most({name: zoo[name] for name in todo}, result)
+        else:
+            budget = sum(epoch_budget(zoo[name]) for name in todo)
         bars = ProgressBars(
             len(zoo),
             f"{system.name} seed {settings.seed}" if measured else system.name,
             client=client,
             n_done=len(done),
-            n_epochs=budget,
+            n_epochs=budget or None,
         )
         if not measured:  # a measured model's networks are built in its job
             for name in todo:

@@ -707,7 +707,17 @@ def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
     )
 
 
-def test_run_system_shows_progress_by_default(machine, tmp_path, capsys):
+def test_run_system_shows_progress_by_default(machine, tmp_path, capsys, monkeypatch):
+    from skhybrid.experiments import _runner
+
+    bars = []
+
+    class Recorded(_runner.ProgressBars):
+        def close(self):
+            bars.append((self.n_epochs, self.sink.count()))
+            super().close()
+
+    monkeypatch.setattr(_runner, "ProgressBars", Recorded)
     out = tmp_path / "run"
     run_system(
         machine.make_spec(out=out, hybrids=None), out, quick=True, seeds=[0], n_jobs=1
@@ -716,3 +726,44 @@ def test_run_system_shows_progress_by_default(machine, tmp_path, capsys):
     # Not a terminal here: a line per finished model, as the command line shows.
     for model in ("physics", "linear ARX", "physics + dense ensemble"):
         assert model in err
+    # The epoch bar's total is known from the start: 4 folds and a refit of
+    # the dense NARX (15 epochs), of the two windows of physics + dense, and of
+    # the ensemble's three networks; every epoch trained is within it.
+    [(total, trained)] = bars
+    assert total == (4 * 15 + 15) + (4 * 2 * 15 + 15) + (4 * 45 + 45)
+    assert 0 < trained <= total
+
+
+def test_the_epoch_total_counts_folds_candidates_and_refits(machine):
+    from skhybrid.experiments._measured_system import MeasuredSystem, _context
+
+    spec = machine.make_spec(
+        hybrids={
+            "T=20": {"horizon": 20, "max_epochs": 7},
+            "T=40": {"horizon": 40, "max_epochs": 5},
+        }
+    )
+    system = MeasuredSystem.from_spec(spec)
+    result = system.new_result(system.default_settings(quick=False), None)
+    models = system.model_zoo(result.settings)
+    ctx = _context(result)
+    # Full settings: 60-epoch networks, three correction windows, both hybrids.
+    per_model = {"dense NARX": [60], "physics + dense": [60, 60, 60]}
+    per_model |= {"physics + dense ensemble": [180], "state-space hybrid": [7, 5]}
+    expected = sum(4 * sum(e) + max(e) for e in per_model.values())
+    assert _measured_zoo.epochs_at_most(models, ctx) == expected
+    assert system.epochs_at_most(models, result) == expected
+    # A model whose search was made at another seed only refits its choice.
+    searched = {"dense NARX", "state-space hybrid"}
+    assert _measured_zoo.epochs_at_most(models, ctx, searched) == expected - (
+        4 * 60 + 4 * 12
+    )
+    # A model without networks adds nothing; one record too short for four
+    # blocks of 8 initialisation windows folds fewer times.
+    assert _measured_zoo.epochs_at_most({"physics": models["physics"]}, ctx) == 0
+    short = _context(result)
+    short = type(short)(**{**short.__dict__, "U": [ctx.U[0][:200]]})
+    n_folds = _measured_zoo.RecordBlockSplit(4, n_init=10).get_n_splits(short.U)
+    assert n_folds < 4
+    only = {"dense NARX": models["dense NARX"]}
+    assert _measured_zoo.epochs_at_most(only, short) == n_folds * 60 + 60

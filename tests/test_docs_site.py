@@ -13,6 +13,12 @@ from pathlib import Path
 
 import pytest
 
+# Building the site runs every gallery example again (about 2 minutes on two
+# cores): the examples and the guides' code run in the default suite
+# (test_examples.py, test_docs.py); the site's build with -W, its API reference
+# and its rendering run with `pytest -m slow`.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parent.parent
 
 

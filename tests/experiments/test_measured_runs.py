@@ -305,6 +305,9 @@ def test_data_or_noise_type_where_they_mean_nothing_is_refused(tmp_path, capsys)
 # -- the run: results as models finish, Ctrl-C, resume, report ---------------
 
 
+# About 45 s; a paper system's Ctrl-C and resume run by default
+# (test_run_folder.py), this measured one with `pytest -m slow`.
+@pytest.mark.slow
 def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     tmp_path, capsys, axis, monkeypatch
 ):

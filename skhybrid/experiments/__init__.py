@@ -32,7 +32,7 @@ _LAZY = {
     "load_fitted": "_measured",
     "run_system": "_measured",
     "SYSTEMS": "_registry",
-    "ExperimentResult": "_runner",
+    "ExperimentResult": "_simulated",
     "ExperimentSettings": "_settings",
     "System": "_systems",
     "check_claims": "_claims",

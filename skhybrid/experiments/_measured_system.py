@@ -23,7 +23,8 @@ from skhybrid.experiments._measured_zoo import (
     zoo,
 )
 from skhybrid.experiments._pickling import check_picklable
-from skhybrid.experiments._spec import SystemSpec
+from skhybrid.experiments._spec import SystemSpec, records_digest
+from skhybrid.experiments._store import VALIDATION_RUNS
 from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
 __all__ = ["MeasuredResult", "MeasuredSettings", "MeasuredSystem"]
@@ -274,7 +275,7 @@ class MeasuredSystem:
         """The run folder's name for this system's models at ``settings``' seed."""
         return f"{self.name}-seed-{settings.seed}"
 
-    def new_result(self, settings, data):
+    def new_result(self, settings, data=None, searched=None):
         """Load the estimation records and return an empty :class:`MeasuredResult`.
 
         No test record is read: they are read once the selection is sealed.
@@ -283,8 +284,11 @@ class MeasuredSystem:
         ----------
         settings : MeasuredSettings
             ``quick`` and ``seed``.
-        data : str or Path or None
+        data : str or Path or None, default=None
             A built-in benchmark's data folder; None fetches its files.
+        searched : dict of str to dict or None, default=None
+            Each model's search made at another seed, whose choice this seed
+            refits (see :func:`~skhybrid.experiments._sealed.run_seeds`).
 
         Returns
         -------
@@ -293,9 +297,32 @@ class MeasuredSystem:
         """
         system = self.bind(data, settings.quick)
         U, Y = system.spec.estimation_records()
-        return MeasuredResult(
+        result = MeasuredResult(
             system, settings, (U, Y), system.spec.n_init, system.spec.sample_period()
         )
+        result.searched = dict(searched or {})
+        return result
+
+    def open_folder(self, result, folder):
+        """Check the folder's records and keep the deterministic fits there.
+
+        Deterministic fits are computed once per records and kept in the
+        folder's ``cache``: every seed, and every model built on the physics,
+        reads them.
+
+        Parameters
+        ----------
+        result : MeasuredResult
+            The run (its estimation records).
+        folder : RunFolder
+            Its folder; refused where it holds models of other records.
+        """
+        result.cache_dir = str(folder.path / "cache")
+        folder.check_records(result.store_key, records_digest(*result.train))
+
+    def progress_label(self, settings):
+        """What the progress bars call this run: the system and its seed."""
+        return f"{self.name} seed {settings.seed}"
 
     def model_zoo(self, settings):
         """The zoo's models (see :func:`skhybrid.experiments._measured_zoo.zoo`).
@@ -461,6 +488,40 @@ class MeasuredResult:
     @property
     def test_splits(self):
         return list(self.tests)
+
+    def restore(self, name, record, folder):
+        """Take a model finished in an earlier run from the run folder.
+
+        Its fit record, parameters, fitted estimator (its test records are
+        simulated once the selection is sealed) and out-of-fold free runs.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        record : dict
+            Its record in the folder.
+        folder : RunFolder
+            The run folder.
+        """
+        key = self.store_key
+        self.fits[name] = record["fit"]
+        if record["params"]:
+            self.params[name] = record["params"]
+        self.estimators[name] = folder.load_estimator(key, record)
+        runs = {}
+        for split, pred in folder.load_predictions(key, record).items():
+            if split.startswith(VALIDATION_RUNS):
+                runs[int(split[len(VALIDATION_RUNS) :])] = pred
+            else:
+                self.predictions.setdefault(split, {})[name] = pred
+        if runs:
+            self.validation_runs[name] = [runs[i] for i in sorted(runs)]
+
+    def score(self):
+        """Nothing to score yet: the test records are scored once the
+        selection of every seed is sealed
+        (:func:`~skhybrid.experiments._sealed.score_tests`)."""
 
     def validation_blocks(self):
         """The held-out blocks of each fold every choice is made on.

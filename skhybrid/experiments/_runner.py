@@ -1,219 +1,29 @@
-"""Fit the model zoo on one system and score it on its test sets."""
+"""The pipeline's fit: a system's model zoo, each model once, in parallel.
+
+:func:`run_experiment` runs a simulated system of the paper and a measured one
+through the same steps, calling the system's hooks (``default_settings``,
+``new_result``, ``model_zoo``, ``job``, ``epochs_at_most``): restore the models
+an earlier run finished, fit the others in stages (a model after the models it
+requires), write each to the run folder as it finishes, and score.
+"""
 
 import contextlib
 import logging
 import os
 import time
-import warnings
 
 import numpy as np
-from joblib import Parallel, delayed, parallel_config
+from joblib import Parallel, parallel_config
 from joblib.parallel import get_active_backend
 
-from skhybrid.diagnostics import ljung_box_test, rmse_db
-from skhybrid.experiments._fitting import interrupts_raise, n_epochs, physical_params
-from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT, paper_stochastic
-from skhybrid.experiments._progress import (
-    ProgressBars,
-    attach_epoch_logger,
-    epoch_budget,
-)
+from skhybrid.experiments._progress import ProgressBars
 from skhybrid.experiments._registry import get_system
-from skhybrid.experiments._settings import ExperimentSettings
-from skhybrid.experiments._spec import records_digest
-from skhybrid.experiments._zoo import model_zoo
+from skhybrid.experiments._simulated import ExperimentResult
+from skhybrid.experiments._store import VALIDATION_RUNS
 
 __all__ = ["ExperimentResult", "run_experiment"]
 
-#: Prefix of a measured model's stored out-of-fold free runs.
-VALIDATION = "validation/"
-
 logger = logging.getLogger(__name__)
-
-
-class ExperimentResult:
-    """Everything one run of one system produced.
-
-    Parameters
-    ----------
-    system : System
-        The system.
-    settings : ExperimentSettings
-        Sizes, architectures and seed.
-    splits : dict of str to Bunch
-        The simulated data of each split.
-
-    Attributes
-    ----------
-    system : System
-        The system.
-    settings : ExperimentSettings
-        Sizes, architectures and seed.
-    splits : dict of str to Bunch
-        The simulated data of each split.
-    predictions : dict of str to dict of str to ndarray
-        ``predictions[split][model]``; the key ``"oracle"`` holds the true equations
-        applied to the noisy inputs.
-    rows : list of dict
-        One row per model, split and output (the content of ``results.csv``).
-    params : dict of str to dict
-        Fitted physical parameters and standard errors of each model that has any.
-    fits : dict of str to dict
-        Fit time, epochs and warnings of each model.
-    hull : dict of str to float
-        Share of each test split's rows outside the convex hull of the training rows.
-    validation : Bunch or None
-        New episodes like the training split's, predicted by every model (its
-        predictions under ``predictions["validation"]``), never scored as a test:
-        the chosen model and its noise model come from them.
-    stochastic : dict
-        The chosen model's stochastic part (see
-        :func:`~skhybrid.experiments._paper_stochastic.paper_stochastic`).
-    wall_time : float
-        Seconds for the whole run.
-    """
-
-    def __init__(self, system, settings, splits):
-        self.system = system
-        self.settings = settings
-        self.splits = splits
-        self.predictions = {name: {} for name in splits if name != "train"}
-        self.predictions[VALIDATION_SPLIT] = {}
-        self.rows = []
-        self.params = {}
-        self.fits = {}
-        self.hull = {}
-        self.validation = None
-        self.stochastic = {}
-        self.wall_time = float("nan")
-
-    @property
-    def test_splits(self):
-        return [name for name in self.splits if name != "train"]
-
-    @property
-    def store_key(self):
-        """The run folder's name for this system's models."""
-        return self.system.name
-
-    @property
-    def target_names(self):
-        return list(self.splits["train"].target_names)
-
-    def model_rows(self, split, model):
-        """The scores of one model on one test split, one row per output.
-
-        Parameters
-        ----------
-        split : str
-            A test split's name.
-        model : str
-            A model's name.
-
-        Returns
-        -------
-        rows : list of dict
-            The rows of ``results.csv``.
-        """
-        return _model_rows(self, split, model)
-
-    def windowed_db(self, split):
-        """RMSE in dB of every model over short windows of one test split.
-
-        Parameters
-        ----------
-        split : str
-            A test split's name.
-
-        Returns
-        -------
-        rmse_db : dict of str to ndarray of shape (n_windows, n_outputs)
-            ``{model: RMSE in dB per window and output}``."""
-        y = self.splits[split].y
-        return {
-            model: rmse_db(y, pred, window=self.settings.window)
-            for model, pred in self.predictions[split].items()
-        }
-
-
-def _fit_one(name, estimator, X, y, tests):
-    """Fit one model and predict every test split (runs in a joblib worker)."""
-    with warnings.catch_warnings(record=True) as caught, interrupts_raise():
-        warnings.simplefilter("always")
-        start = time.perf_counter()
-        estimator.fit(X, y)
-        fit_time = time.perf_counter() - start
-        predictions = {split: estimator.predict(X_test) for split, X_test in tests}
-    messages = sorted(
-        {
-            f"{w.category.__name__}: {w.message}"
-            for w in caught
-            if not issubclass(w.category, DeprecationWarning)
-        }
-    )
-    return name, {
-        "estimator": estimator,
-        "predictions": predictions,
-        "fit_time": fit_time,
-        "n_epochs": n_epochs(estimator),
-        "params": physical_params(estimator),
-        "warnings": messages,
-    }
-
-
-def _model_rows(result, split, model):
-    """Scores of one model on one test split, one row per output."""
-    s = result.settings
-    data = result.splits[split]
-    y = np.asarray(data.y, dtype=float)
-    oracle_rmse = np.sqrt(np.mean((y - data.oracle) ** 2, axis=0))
-    pred = result.predictions[split][model]
-    residual = y - pred
-    rmse = np.sqrt(np.mean(residual**2, axis=0))
-    whiteness = ljung_box_test(residual, s.lags)
-    windowed = rmse_db(y, pred, window=s.window)
-    fit = result.fits.get(model, {})
-    return [
-        {
-            "system": result.system.name,
-            "seed": s.seed,
-            "model": model,
-            "split": split,
-            "output": output,
-            "rmse": float(rmse[j]),
-            "rmse_db": float(20 * np.log10(rmse[j])),
-            "rmse_over_oracle": float(rmse[j] / oracle_rmse[j]),
-            "median_window_rmse_db": float(np.median(windowed[:, j])),
-            "residual_std": float(np.std(residual[:, j])),
-            "ljung_box_stat": float(whiteness.statistic[j]),
-            "ljung_box_pvalue": float(whiteness.pvalue[j]),
-            "fit_time_s": fit.get("fit_time"),
-            "n_epochs": fit.get("n_epochs"),
-        }
-        for j, output in enumerate(result.target_names)
-    ]
-
-
-def _score(result):
-    """Fill ``result.rows`` from the predictions."""
-    for split in result.test_splits:
-        for model in result.predictions[split]:
-            result.rows.extend(result.model_rows(split, model))
-
-
-def _hull_shares(splits, n_steps):
-    """Share of each test split's newest steps outside the training hull."""
-    from skhybrid.model_selection import in_convex_hull
-    from skhybrid.preprocessing import newest_step
-
-    reference = newest_step(splits["train"].X, n_steps)
-    return {
-        split: float(
-            1 - np.mean(in_convex_hull(newest_step(data.X, n_steps), reference))
-        )
-        for split, data in splits.items()
-        if split != "train"
-    }
 
 
 def _dask_client(backend):
@@ -239,10 +49,6 @@ def _local_threads(backend, n_threads):
             yield
     else:
         yield
-
-
-def _is_measured(system):
-    return getattr(system, "measured", False)
 
 
 def _stages(zoo, todo):
@@ -347,51 +153,18 @@ def run_experiment(
     """
     start = time.perf_counter()
     system = get_system(system)
-    measured = _is_measured(system)
     if settings is None:
-        if measured:
-            settings = system.default_settings(quick, seed)
-        else:
-            settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(
-                seed
-            )
-    if measured:
-        result = system.new_result(settings, data)
-        result.searched = dict(searched or {})
-        system = result.system  # bound to its spec
-        if folder is not None:
-            # Deterministic fits are computed once per records and kept here:
-            # every seed, and every model built on the physics, reads them.
-            result.cache_dir = str(folder.path / "cache")
-        zoo = system.model_zoo(settings)
-    else:
-        splits = system.make_splits(settings)
-        result = ExperimentResult(system, settings, splits)
-        result.validation = system.validation_split(settings)
-        for split in result.test_splits:
-            result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
-        result.hull = _hull_shares(splits, settings.n_steps)
-        zoo = model_zoo(system, settings)
-
+        settings = system.default_settings(quick, seed)
+    result = system.new_result(settings, data, searched=searched)
+    system = result.system  # a measured system bound to its spec
+    zoo = system.model_zoo(settings)
     key = result.store_key
-    if measured and folder is not None:
-        folder.check_records(key, records_digest(*result.train))
+    if folder is not None:
+        system.open_folder(result, folder)
     done = {} if folder is None else folder.finished(key)
     done = {name: record for name, record in done.items() if name in zoo}
     for name, record in done.items():
-        result.fits[name] = record["fit"]
-        if record["params"]:
-            result.params[name] = record["params"]
-        if measured:  # its test records are simulated once the selection is sealed
-            result.estimators[name] = folder.load_estimator(key, record)
-        runs = {}
-        for split, pred in folder.load_predictions(key, record).items():
-            if split.startswith(VALIDATION):
-                runs[int(split[len(VALIDATION) :])] = pred
-            else:
-                result.predictions[split][name] = pred
-        if runs:
-            result.validation_runs[name] = [runs[i] for i in sorted(runs)]
+        result.restore(name, record, folder)
 
     # The slowest fits (recurrent and state-space hybrids) first, so parallel
     # workers finish together.
@@ -423,34 +196,20 @@ def run_experiment(
     n_threads = max(1, cores // max(workers, 1))
     bars = None
     if progress:
-        if measured:  # its networks are built in each model's search
-            budget = system.epochs_at_most({name: zoo[name] for name in todo}, result)
-        else:
-            budget = sum(epoch_budget(zoo[name]) for name in todo)
+        budget = system.epochs_at_most({name: zoo[name] for name in todo}, result)
         bars = ProgressBars(
             len(zoo),
-            f"{system.name} seed {settings.seed}" if measured else system.name,
+            system.progress_label(settings),
             client=client,
             n_done=len(done),
             n_epochs=budget or None,
         )
-        if not measured:  # a measured model's networks are built in its job
-            for name in todo:
-                attach_epoch_logger(zoo[name], bars.sink, name)
     sink = None if bars is None else bars.sink
 
     def jobs(stage):
         for name in stage:
-            if measured:
-                needs = {k: deps[k] for k in getattr(zoo[name], "requires", ())}
-                yield system.job(name, zoo[name], result, needs, sink)
-            else:
-                train = result.splits["train"]
-                tests = [
-                    (split, result.splits[split].X) for split in result.test_splits
-                ]
-                tests.append((VALIDATION_SPLIT, result.validation.X))
-                yield delayed(_fit_one)(name, zoo[name], train.X, train.y, tests)
+            needs = {k: deps[k] for k in getattr(zoo[name], "requires", ())}
+            yield system.job(name, zoo[name], result, needs, sink)
 
     try:
         for stage in stages:
@@ -475,9 +234,7 @@ def run_experiment(
         result.predictions[split] = {
             k: preds[k] for k in ["oracle", *zoo] if k in preds
         }
-    _score(result)
-    if not measured:
-        result.stochastic = paper_stochastic(result)
+    result.score()
     result.wall_time = time.perf_counter() - start
     return result
 
@@ -503,7 +260,7 @@ def _record(result, name, out, folder):
         # stochastic part of the report reads them, and a resume restores them.
         runs = [np.asarray(run, dtype=float) for run in out["validation_runs"]]
         result.validation_runs[name] = runs
-        stored.update({f"{VALIDATION}{i}": run for i, run in enumerate(runs)})
+        stored.update({f"{VALIDATION_RUNS}{i}": run for i, run in enumerate(runs)})
     result.fits[name] = fit
     if hasattr(result, "estimators"):
         result.estimators[name] = out["estimator"]

@@ -40,6 +40,7 @@ import numpy as np
 __all__ = [
     "RUN_FORMAT",
     "SELECTION_FILE",
+    "VALIDATION_RUNS",
     "FolderLock",
     "RunFolder",
     "RunFolderError",
@@ -54,6 +55,10 @@ REPORT_FILES = ("results.csv", "results.json", "report.html", "selection.json")
 
 #: The sealed selection's file in a run folder.
 SELECTION_FILE = "selection.json"
+
+#: Prefix of a measured model's stored out-of-fold free runs (``validation/K``
+#: for fold K) among its predictions.
+VALIDATION_RUNS = "validation/"
 
 
 class RunFolderError(Exception):

@@ -1,9 +1,22 @@
 """What a simulated system of the paper is: its splits and the physics fitted to each.
 
 The systems themselves are modules of the catalogue, :mod:`skhybrid.benchmarks`.
+A system also answers the pipeline's hooks
+(:func:`~skhybrid.experiments.run_experiment` calls the same ones on a measured
+system): its default settings, a new result, its model zoo, the joblib call
+that fits one model, and the most epochs its networks can train.
 """
 
 from dataclasses import replace
+
+import numpy as np
+from joblib import delayed
+
+from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT
+from skhybrid.experiments._progress import attach_epoch_logger, epoch_budget
+from skhybrid.experiments._settings import ExperimentSettings
+from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shares
+from skhybrid.experiments._zoo import model_zoo
 
 __all__ = ["System"]
 
@@ -116,3 +129,124 @@ class System:
             ``{split: description}``.
         """
         return {}
+
+    # -- the pipeline's hooks ---------------------------------------------------
+    def default_settings(self, quick=False, seed=0):
+        """The run's settings: the full run's or ``--quick``'s, at ``seed``.
+
+        Parameters
+        ----------
+        quick : bool, default=False
+            Small data and few epochs.
+        seed : int, default=0
+            Seed of the data and the models.
+
+        Returns
+        -------
+        settings : ExperimentSettings
+            Sizes, architectures and seed.
+        """
+        make = ExperimentSettings.quick if quick else ExperimentSettings.full
+        return make(seed)
+
+    def new_result(self, settings, data=None, searched=None):
+        """Simulate the splits and return an :class:`ExperimentResult` without models.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            Sizes and seed.
+        data : None
+            Unused: a simulated system reads no files.
+        searched : None
+            Unused: a simulated system makes no search.
+
+        Returns
+        -------
+        result : ExperimentResult
+            The splits, the validation split, the oracle's predictions and the
+            share of each test split outside the training hull.
+        """
+        splits = self.make_splits(settings)
+        result = ExperimentResult(self, settings, splits)
+        result.validation = self.validation_split(settings)
+        for split in result.test_splits:
+            result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
+        result.hull = hull_shares(splits, settings.n_steps)
+        return result
+
+    def model_zoo(self, settings):
+        """The zoo of the paper's section 6 for this system (unfitted estimators).
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            Sizes, architectures and seed.
+
+        Returns
+        -------
+        zoo : dict of str to estimator
+            In the order the report lists them.
+        """
+        return model_zoo(self, settings)
+
+    def open_folder(self, result, folder):
+        """Prepare a run folder for this system's models (nothing to prepare).
+
+        Parameters
+        ----------
+        result : ExperimentResult
+            The run.
+        folder : RunFolder
+            Its folder.
+        """
+
+    def progress_label(self, settings):
+        """What the progress bars call this run."""
+        return self.name
+
+    def epochs_at_most(self, models, result):
+        """The most epochs the networks of ``models`` can train.
+
+        Parameters
+        ----------
+        models : dict of str to estimator
+            The models still to fit.
+        result : ExperimentResult
+            The run.
+
+        Returns
+        -------
+        n_epochs : int
+            The sum of their :func:`~skhybrid.experiments._progress.epoch_budget`.
+        """
+        return sum(epoch_budget(model) for model in models.values())
+
+    def job(self, name, model, result, deps, sink=None):
+        """The joblib call that fits one model and predicts every split.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        model : estimator
+            The unfitted model.
+        result : ExperimentResult
+            The splits.
+        deps : dict
+            Unused: no model of the zoo requires another.
+        sink : object or None, default=None
+            Where its networks report their epochs.
+
+        Returns
+        -------
+        call : tuple
+            A :func:`joblib.delayed` call of
+            :func:`~skhybrid.experiments._simulated.fit_one`.
+        """
+        if sink is not None:
+            attach_epoch_logger(model, sink, name)
+        train = result.splits["train"]
+        tests = [(split, result.splits[split].X) for split in result.test_splits]
+        tests.append((VALIDATION_SPLIT, result.validation.X))
+        return delayed(fit_one)(name, model, train.X, train.y, tests)

@@ -496,6 +496,7 @@ def main(argv=None):
             _error(f"{verb} needs {line}")
         return 2
 
+    from skhybrid.exceptions import RefusedTestRecordsError
     from skhybrid.experiments._store import RunFolder, RunFolderError
 
     command = "skhybrid " + shlex.join(argv)
@@ -512,7 +513,7 @@ def main(argv=None):
         return 130
     try:
         return _run(args, argv, command, folder)
-    except (RunFolderError, _SpecError) as exc:
+    except (RunFolderError, _SpecError, RefusedTestRecordsError) as exc:
         _error(str(exc))
         return 2
     except KeyboardInterrupt:

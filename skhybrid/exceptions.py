@@ -12,6 +12,7 @@ __all__ = [
     "IdentifiabilityWarning",
     "InconsistentVersionWarning",
     "NonWhiteResidualWarning",
+    "RefusedTestRecordsError",
     "SimulationDivergedError",
     "TrainingDivergedError",
 ]
@@ -78,6 +79,18 @@ class TrainingDivergedError(FloatingPointError, ValueError):
 
     Subclasses :class:`ValueError` (bad settings, usually a learning rate that is too
     large) and :class:`FloatingPointError` (what happened numerically).
+    """
+
+
+class RefusedTestRecordsError(ValueError):
+    """A run's test records, read once its selection was sealed, are refused.
+
+    A spec whose ``tests`` is a function reads its test records only after
+    ``selection.json`` is written; a record that holds NaN, has other columns
+    than the estimation records or is too short is refused then, before any
+    model is simulated on it. The message names the record and says how to
+    score the sealed selection once the records are fixed (``--resume``).
+    Subclasses :class:`ValueError`.
     """
 
 

@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 
+from skhybrid.exceptions import RefusedTestRecordsError
 from skhybrid.experiments._measured_report import hull_exit
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
@@ -673,7 +674,14 @@ def run_seeds(
     sealed = seal(results, None if folder is None else folder.path)
     # The first read of the test records: after the selection file is written.
     # Checked against the estimation records before any model is simulated.
-    tests = results[0].system.spec.test_records(*results[0].train)
+    try:
+        tests = results[0].system.spec.test_records(*results[0].train)
+    except (TypeError, ValueError) as exc:
+        where = "" if folder is None else f" in {folder.path / SELECTION_FILE}"
+        raise RefusedTestRecordsError(
+            f"{exc} The selection is sealed{where}: fix the test records, then "
+            "run the same command with --resume (resume=True) to score it."
+        ) from exc
     for result in results:
         score_tests(result, tests, folder)
     run = MeasuredRun(results, sealed)

@@ -103,7 +103,7 @@ def _frame_dt(frame, where):
     return float(steps.mean())
 
 
-def as_records(records, *, inputs=None, outputs=None, name="records"):
+def as_records(records, *, inputs=None, outputs=None, name="records", one=False):
     """Records in any of the spec's forms as lists of 2-D float arrays.
 
     Parameters
@@ -116,6 +116,9 @@ def as_records(records, *, inputs=None, outputs=None, name="records"):
         The DataFrames' input and output columns (needed for DataFrames).
     name : str, default="records"
         The parameter's name in error messages.
+    one : bool, default=False
+        ``records`` is one record, named ``name`` itself in error messages
+        (not ``name[0]``).
 
     Returns
     -------
@@ -136,7 +139,7 @@ def as_records(records, *, inputs=None, outputs=None, name="records"):
         )
     U, Y, dts = [], [], []
     for i, record in enumerate(records):
-        where = f"{name}[{i}]"
+        where = name if one else f"{name}[{i}]"
         if _is_frame(record):
             if not inputs or not outputs:
                 raise ValueError(
@@ -668,7 +671,7 @@ class SystemSpec:
         for key, record in tests.items():
             where = f"tests[{key!r}]"
             u, y = as_records(
-                [record], inputs=self.inputs, outputs=self.outputs, name=where
+                [record], inputs=self.inputs, outputs=self.outputs, name=where, one=True
             )[0:2]
             u, y = u[0], y[0]
             if len(u) <= self.n_init:

@@ -25,6 +25,7 @@ import pytest
 import skhybrid.domain
 import skhybrid.hybrid
 from skhybrid.domain import StateSpaceModel
+from skhybrid.exceptions import RefusedTestRecordsError
 from skhybrid.experiments import SystemSpec, load_fitted, run_system
 from skhybrid.experiments._store import RunFolderError
 
@@ -314,10 +315,51 @@ def test_run_json_ends_failed_after_an_error_in_python(tmp_path, monkeypatch):
 def test_a_bad_callable_test_record_is_named_and_the_run_marked_failed(tmp_path):
     u, y = record(200, 2)
     spec = make_spec(tests=lambda: {"test": (np.hstack([u, u]), y)})
-    with pytest.raises(ValueError, match=r"tests\['test'\] has inputs of shape"):
+    with pytest.raises(RefusedTestRecordsError, match=r"tests\['test'\] has inputs"):
         run_system(spec, tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     manifest = json.loads((tmp_path / "run" / "run.json").read_text())
     assert manifest["status"] == "failed"
+
+
+def test_a_nan_test_record_found_after_sealing_is_one_line_and_resume_scores(
+    tmp_path, monkeypatch, capsys
+):
+    from skhybrid.cli import main
+
+    # The test record is read from a file only once the selection is sealed.
+    (tmp_path / "late_machine.py").write_text(
+        "import numpy as np\n"
+        f"from {__name__} import make_spec\n"
+        "def tests():\n"
+        "    data = np.load('test-record.npz')\n"
+        "    return {'test': (data['u'], data['y'])}\n"
+        "spec = make_spec(tests=tests)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.chdir(tmp_path)
+    u, y = record(200, 2)
+    bad = y.copy()
+    bad[7] = np.nan
+    np.savez(tmp_path / "test-record.npz", u=u, y=bad)
+    out = tmp_path / "run"
+    argv = ["run", "--system", "late_machine:spec", "--out", str(out), "--quick"]
+    argv += ["--seeds", "0", "--n-jobs", "1", "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert "tests['test'] holds NaN" in lines[0]  # the record, not tests['test'][0]
+    assert "selection.json" in lines[0] and "--resume" in lines[0]
+    manifest = json.loads((out / "run.json").read_text())
+    assert manifest["status"] == "failed"
+    sealed = (out / "selection.json").read_text()
+    # Fixed, the resumed run scores the same sealed selection: nothing refitted.
+    np.savez(tmp_path / "test-record.npz", u=u, y=y)
+    assert main([*argv, "--resume"]) == 0
+    assert (out / "selection.json").read_text() == sealed
+    summary = json.loads((out / "results.json").read_text())
+    chosen = summary["systems"]["tiny"]["chosen_test_rmse"]["test"]["mean"]
+    assert np.isfinite(chosen)
 
 
 # -- checksums ----------------------------------------------------------------------

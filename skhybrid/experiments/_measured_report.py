@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from skhybrid.experiments._html import p_value
 from skhybrid.experiments._store import SELECTION_FILE, _slug
 from skhybrid.model_selection import in_convex_hull
 
@@ -154,10 +155,6 @@ def failure_reason(run, split, model):
     return None
 
 
-def _p(value):
-    return "n/a" if value is None else f"{value:.3g}"
-
-
 def _stochastic_html(summary, unit):
     """The stochastic part's subsection: residual tests, noise model, band."""
     rows = []
@@ -174,8 +171,9 @@ def _stochastic_html(summary, unit):
         val = part.get("validation", {})
         rows.append(
             f"<tr><td>{seed}</td><td>{html.escape(part['model'])}</td>"
-            f"<td>held-out blocks (CV)</td><td>{_p(val.get('ljung_box_pvalue'))}</td>"
-            f"<td>{_p(val.get('input_correlation_pvalue'))}</td>"
+            "<td>held-out blocks (CV)</td>"
+            f"<td>{p_value(val.get('ljung_box_pvalue'))}</td>"
+            f"<td>{p_value(val.get('input_correlation_pvalue'))}</td>"
             f"<td>AR lags {lags}; std {noise['std']:.3g}, innovations "
             f"{noise['innovation_std']:.3g}, mean {noise['mean']:.3g}</td>"
             "<td></td></tr>"
@@ -185,8 +183,8 @@ def _stochastic_html(summary, unit):
             covered = "n/a" if coverage is None else f"{100 * coverage:.1f} %"
             rows.append(
                 f"<tr><td>{seed}</td><td></td><td>{html.escape(split)}</td>"
-                f"<td>{_p(tests.get('ljung_box_pvalue'))}</td>"
-                f"<td>{_p(tests.get('input_correlation_pvalue'))}</td><td></td>"
+                f"<td>{p_value(tests.get('ljung_box_pvalue'))}</td>"
+                f"<td>{p_value(tests.get('input_correlation_pvalue'))}</td><td></td>"
                 f"<td>{covered}</td></tr>"
             )
     if not rows:

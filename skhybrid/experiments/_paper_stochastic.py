@@ -14,6 +14,7 @@ each test split with the band's **coverage** (the share of test rows inside it).
 
 import numpy as np
 
+from skhybrid.experiments._html import p_value
 from skhybrid.experiments._stochastic import (
     BAND_LEVEL,
     band_coverage,
@@ -179,10 +180,6 @@ def paper_stochastic(result):
 BAND_ROWS = 300
 
 
-def _p(value):
-    return "n/a" if value is None else f"{value:.3g}"
-
-
 def stochastic_html(part):
     """The report's subsection on the chosen model's stochastic part.
 
@@ -214,8 +211,8 @@ def stochastic_html(part):
         val = entry["validation"]
         rows.append(
             f"<tr><td>{html.escape(output)}</td><td>validation</td>"
-            f"<td>{_p(val.get('ljung_box_pvalue'))}</td>"
-            f"<td>{_p(val.get('input_correlation_pvalue'))}</td>"
+            f"<td>{p_value(val.get('ljung_box_pvalue'))}</td>"
+            f"<td>{p_value(val.get('input_correlation_pvalue'))}</td>"
             f"<td>{html.escape(model)}</td><td></td></tr>"
         )
         for split, tests in entry["tests"].items():
@@ -223,8 +220,8 @@ def stochastic_html(part):
             covered = "n/a" if coverage is None else f"{100 * coverage:.1f} %"
             rows.append(
                 f"<tr><td></td><td>{html.escape(split)}</td>"
-                f"<td>{_p(tests.get('ljung_box_pvalue'))}</td>"
-                f"<td>{_p(tests.get('input_correlation_pvalue'))}</td><td></td>"
+                f"<td>{p_value(tests.get('ljung_box_pvalue'))}</td>"
+                f"<td>{p_value(tests.get('input_correlation_pvalue'))}</td><td></td>"
                 f"<td>{covered}</td></tr>"
             )
     level = 100 * part["level"]

@@ -19,7 +19,11 @@ import time
 import numpy as np
 
 from skhybrid.exceptions import RefusedTestRecordsError
-from skhybrid.experiments._measured_report import hull_exit
+from skhybrid.experiments._measured_report import (
+    hull_exit,
+    measured_figure,
+    measured_section,
+)
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
@@ -462,6 +466,53 @@ class MeasuredRun:
                 ]
             )
         return by_model, chosen
+
+    @property
+    def report_title(self):
+        """The report page's title: the system's own."""
+        return self.system.title or self.system.name
+
+    def report(self, out_dir):
+        """Draw the figure; the report's section and ``results.json`` part.
+
+        Parameters
+        ----------
+        out_dir : Path
+            Where the figure goes.
+
+        Returns
+        -------
+        figures : list of Path
+            The figure drawn.
+        section : str
+            The system's HTML section.
+        summary : dict
+            Its part of ``results.json`` (:meth:`summary`).
+        """
+        path = measured_figure(self, out_dir)
+        return [path], measured_section(self, path), self.summary()
+
+    def report_settings(self):
+        """The report's settings table: from the spec and the seeds.
+
+        Returns
+        -------
+        settings : dict
+            ``{setting: value}``.
+        """
+        first = self.results[0]
+        return {
+            "system": self.system.name,
+            "seeds (searched at the first, refitted at each)": ", ".join(
+                map(str, self.seeds)
+            ),
+            "quick": self.settings.quick,
+            "n_init (samples that start each free run)": first.n_init,
+            "dt [s]": first.dt,
+            "estimation records (samples)": ", ".join(
+                str(len(u)) for u in first.train[0]
+            ),
+        }
 
     def summary(self):
         """The system's entry of ``results.json``.

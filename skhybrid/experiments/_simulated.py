@@ -15,6 +15,7 @@ import numpy as np
 from skhybrid.diagnostics import ljung_box_test, rmse_db
 from skhybrid.experiments._fitting import interrupts_raise, n_epochs, physical_params
 from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT, paper_stochastic
+from skhybrid.experiments._simulated_report import simulated_report, simulated_settings
 from skhybrid.model_selection import in_convex_hull
 from skhybrid.preprocessing import newest_step
 
@@ -116,6 +117,38 @@ class ExperimentResult:
             for model in self.predictions[split]:
                 self.rows.extend(self.model_rows(split, model))
         self.stochastic = paper_stochastic(self)
+
+    #: The report page's title for the paper's systems.
+    report_title = "the paper's section 6"
+
+    def report(self, out_dir):
+        """Draw the figures; the report's section and ``results.json`` part.
+
+        Parameters
+        ----------
+        out_dir : Path
+            Where the figures go.
+
+        Returns
+        -------
+        figures : list of Path
+            The figures drawn.
+        section : str
+            The system's HTML section.
+        summary : dict
+            Its part of ``results.json``.
+        """
+        return simulated_report(self, out_dir)
+
+    def report_settings(self):
+        """The report's settings table: the run's settings.
+
+        Returns
+        -------
+        settings : dict
+            ``{setting: value}``.
+        """
+        return simulated_settings(self)
 
     def model_rows(self, split, model):
         """The scores of one model on one test split, one row per output.

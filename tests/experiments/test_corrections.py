@@ -21,9 +21,9 @@ from skhybrid.experiments._measured_zoo import (
 )
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
 from skhybrid.hybrid._correction import (
+    TransformedInputSimulator,
     _NARXSimulator,
     _PhysicsCorrection,
-    TransformedInputSimulator,
 )
 from skhybrid.model_selection import RecordBlockSplit
 

@@ -19,7 +19,7 @@ import pytest
 
 from skhybrid import experiments
 from skhybrid.cli import main
-from skhybrid.experiments import _report, _systems
+from skhybrid.experiments import _simulated_report, _systems
 from skhybrid.experiments._store import FolderLock, RunFolder, RunFolderError
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
@@ -63,7 +63,7 @@ def tiny_zoo(monkeypatch, ctrl_c_at_epoch):
 
     # The paper's claims compare models that the small zoo does not have.
     monkeypatch.setattr(experiments, "check_claims", lambda result: [])
-    monkeypatch.setattr(_report, "check_claims", lambda result: [])
+    monkeypatch.setattr(_simulated_report, "check_claims", lambda result: [])
 
     use()
     return use

@@ -10,7 +10,6 @@ from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from sklearn.base import BaseEstimator
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain._identifiability import warn_if_underdetermined
@@ -21,8 +20,9 @@ from skhybrid.simulation import (
     pack_trajectories,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
-from skhybrid.utils._sklearn_compat import Interval, _fit_context, validate_data
+from skhybrid.utils._sklearn_compat import Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
+from skhybrid.utils._validation import validate_records
 
 __all__ = ["WienerHammersteinModel"]
 
@@ -220,41 +220,12 @@ class WienerHammersteinModel(
     # -- data ----------------------------------------------------------------------
     def _records(self, X, y):
         """Validated ``(inputs, outputs)`` records: one record or a list of them."""
-        several = (
-            isinstance(X, (list, tuple))
-            and isinstance(y, (list, tuple))
-            and len(X) == len(y)
-            and len(y) > 0
-            and all(np.ndim(y_i) >= 1 for y_i in y)
-        )
-        if not several:
-            X, y = validate_data(
-                self, X, y, y_numeric=True, multi_output=True, dtype=np.float64
-            )
-            U, Y = [X], [y]
-        else:
-            U, Y = [], []
-            for u_i, y_i in zip(X, y, strict=True):
-                U.append(check_array(u_i, dtype=np.float64, input_name="X"))
-                Y.append(
-                    check_array(y_i, dtype=np.float64, ensure_2d=False, input_name="y")
-                )
-            widths = {u.shape[1] for u in U}
-            if len(widths) > 1:
-                raise ValueError(
-                    f"Every record of X needs the same number of inputs; got "
-                    f"{sorted(widths)}."
-                )
-            self.n_features_in_ = U[0].shape[1]
-        for u_i, y_i in zip(U, Y, strict=True):
-            if y_i.ndim == 2 and y_i.shape[1] != 1:
+        U, Y = validate_records(self, X, y)
+        for y_i in Y:
+            if y_i.shape[1] != 1:
                 raise ValueError(
                     f"WienerHammersteinModel models one output; y has "
                     f"{y_i.shape[1]} columns."
-                )
-            if len(y_i) != len(u_i):
-                raise ValueError(
-                    f"A record's X and y differ in length: {len(u_i)} and {len(y_i)}."
                 )
             shortest = 2 * (self.order + 1)
             if len(y_i) < shortest:

@@ -13,13 +13,13 @@ from skhybrid.hybrid._record_checks import (
     _check_columns,
     _check_lengths,
     _check_simulate_options,
-    _validate_records,
 )
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import check_trajectories, simulate
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
+from skhybrid.utils._validation import validate_records
 
 __all__ = ["NARXSimulator"]
 
@@ -121,7 +121,7 @@ of them
         self : NARXSimulator
             The fitted model.
         """
-        U, Y = _validate_records(self, X, y)
+        U, Y = validate_records(self, X, y)
         _check_lengths(
             self,
             Y,

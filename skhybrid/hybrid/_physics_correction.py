@@ -13,7 +13,6 @@ from skhybrid.hybrid._record_checks import (
     _check_columns,
     _check_lengths,
     _check_simulate_options,
-    _validate_records,
 )
 from skhybrid.simulation import (
     check_trajectories,
@@ -23,7 +22,7 @@ from skhybrid.simulation import (
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin, transactional
-from skhybrid.utils._validation import as_columns
+from skhybrid.utils._validation import as_columns, validate_records
 
 __all__ = ["PhysicsCorrection"]
 
@@ -174,7 +173,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
         return np.ravel(self.physics.simulate(inputs, initial))
 
     def _validate(self, X, y):
-        U, Y = _validate_records(self, X, y)
+        U, Y = validate_records(self, X, y)
         if Y[0].shape[1] != 1:
             raise ValueError(
                 "y: the measured outputs must hold one output (the physics' "

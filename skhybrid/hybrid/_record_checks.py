@@ -1,13 +1,11 @@
 """Checks shared by the free-run models of records (skhybrid.hybrid._correction).
 
-The records a ``fit(X, y)`` of whole records takes (one record, or lists of
-them), the widths a fitted model's ``simulate`` reads, and the options of the
-``simulate`` contract a model without a noise model lacks.
+The widths a fitted model's ``simulate`` reads, the records' lengths, and the
+options of the ``simulate`` contract a model without a noise model lacks. The
+records a ``fit(X, y)`` of whole records takes (one record, or lists of them)
+are validated by :func:`skhybrid.utils._validation.validate_records`, shared
+with the domain's whole-record models.
 """
-
-import numpy as np
-
-from skhybrid.utils._sklearn_compat import validate_data
 
 __all__ = []
 
@@ -30,56 +28,6 @@ def _check_simulate_options(estimator, init, n_samples, return_std, supported):
             f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
             f"model; {name} has none: call simulate without them."
         )
-
-
-def _validate_records(estimator, X, y):
-    """One record ``(X, y)`` or lists of records, validated, as lists of 2-D arrays.
-
-    ``X`` and ``y`` are several records where both are lists (or tuples) of as
-    many arrays, each ``y[i]`` at least 1-D; otherwise one record. Each record
-    goes through scikit-learn's ``validate_data`` (the first one resets
-    ``n_features_in_``, the others must match it).
-
-    Returns
-    -------
-    U : list of ndarray of shape (n_times_i, n_inputs)
-        The inputs of each record, as floats.
-    Y : list of ndarray of shape (n_times_i, n_outputs)
-        The outputs of each record, as float columns.
-    """
-    several = (
-        isinstance(X, (list, tuple))
-        and isinstance(y, (list, tuple))
-        and len(X) == len(y) > 0
-        and all(np.ndim(y_i) >= 1 for y_i in y)
-    )
-    records = list(zip(X, y, strict=True)) if several else [(X, y)]
-    U, Y = [], []
-    for i, (u, y_i) in enumerate(records):
-        if getattr(u, "ndim", None) == 1:
-            name = f"X[{i}]" if several else "X"
-            raise ValueError(
-                f"{name} must be 2-D (n_times, n_inputs), one column per input; "
-                f"got a 1-D array of shape {u.shape}. Give one input as "
-                f"{name}.reshape(-1, 1)."
-            )
-        u, y_i = validate_data(
-            estimator,
-            u,
-            y_i,
-            reset=i == 0,
-            multi_output=True,
-            y_numeric=True,
-            dtype=np.float64,
-        )
-        U.append(u)
-        Y.append(np.asarray(y_i, dtype=np.float64).reshape(len(y_i), -1))
-    widths = sorted({y_i.shape[1] for y_i in Y})
-    if len(widths) > 1:
-        raise ValueError(
-            f"every record of y must hold the same number of outputs; got {widths}."
-        )
-    return U, Y
 
 
 def _check_lengths(estimator, Y, shortest, why):

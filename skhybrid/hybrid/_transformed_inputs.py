@@ -4,10 +4,11 @@ import numpy as np
 from sklearn.base import BaseEstimator, clone
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.hybrid._record_checks import _check_simulate_options, _validate_records
+from skhybrid.hybrid._record_checks import _check_simulate_options
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import HasMethods, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
+from skhybrid.utils._validation import validate_records
 
 __all__ = ["TransformedInputSimulator"]
 
@@ -150,7 +151,7 @@ of them
             The wrapper, with ``n_features_in_`` set; the wrapped model is
             unchanged.
         """
-        _validate_records(self, X, y)
+        validate_records(self, X, y)
         return self
 
     def inputs(self, inputs):

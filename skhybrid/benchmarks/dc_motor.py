@@ -30,10 +30,16 @@ class DCMotor(System):
                 s.n_train, excitation_hz=10.0, random_state=s.seed, **common
             ),
             "interpolation": make_dc_motor(
-                s.n_test, excitation_hz=10.0, random_state=s.seed + 1000, **common
+                s.n_test,
+                excitation_hz=10.0,
+                random_state=self.split_seed(s, 1000),
+                **common,
             ),
             "extrapolation": make_dc_motor(
-                s.n_test, excitation_hz=100.0, random_state=s.seed + 2000, **common
+                s.n_test,
+                excitation_hz=100.0,
+                random_state=self.split_seed(s, 2000),
+                **common,
             ),
         }
 

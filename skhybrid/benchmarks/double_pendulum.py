@@ -30,7 +30,7 @@ class DoublePendulum(System):
         return {
             "train": make_double_pendulum(s.n_train, random_state=s.seed, **common),
             "interpolation": make_double_pendulum(
-                s.n_test, random_state=s.seed + 1000, **common
+                s.n_test, random_state=self.split_seed(s, 1000), **common
             ),
         }
 

@@ -30,10 +30,10 @@ class Pendulum(System):
                 s.n_train, (-1.0, 1.0), random_state=s.seed, **common
             ),
             "interpolation": make_pendulum(
-                s.n_test, (-1.0, 1.0), random_state=s.seed + 1000, **common
+                s.n_test, (-1.0, 1.0), random_state=self.split_seed(s, 1000), **common
             ),
             "extrapolation": make_pendulum(
-                s.n_test, (-2.0, 2.0), random_state=s.seed + 2000, **common
+                s.n_test, (-2.0, 2.0), random_state=self.split_seed(s, 2000), **common
             ),
         }
 

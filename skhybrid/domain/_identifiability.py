@@ -31,7 +31,11 @@ def warn_if_unidentifiable(estimator, jacobian, spec, theta, tol=1e-6):
     if spec.n_free < 2:
         return
     names = _free_labels(spec)
-    scale = np.where(theta != 0, np.abs(theta), spec.scale)
+    # Relative units: each column times its parameter's size. A parameter
+    # fitted at (or near) zero keeps a floor of its start's size, or its
+    # column would vanish and a well-determined zero (an intercept of 0) would
+    # read as undetermined; scaling a column never hides a true dependence.
+    scale = np.maximum(np.abs(theta), 1e-3 * spec.scale)
     message = check_identifiability(jacobian * scale, names, tol=tol)
     if message:
         warnings.warn(

@@ -61,6 +61,25 @@ class System:
         """
         return settings.noise_type or self.default_noise_type
 
+    @staticmethod
+    def split_seed(settings, offset):
+        """The seed of a split ``offset`` away from the run's, within numpy's range.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            The run's seed.
+        offset : int
+            The split's offset (the catalogue's test splits use 1000 and 2000,
+            the validation split 3000).
+
+        Returns
+        -------
+        seed : int
+            ``(seed + offset) % 2**32``: the run's seed may be any of numpy's.
+        """
+        return (settings.seed + offset) % 2**32
+
     def _common(self, settings):
         return {
             "n_steps": settings.n_steps,
@@ -115,7 +134,7 @@ class System:
         validation : Bunch
             As a split of :meth:`make_splits`.
         """
-        seed = (settings.seed + VALIDATION_SEED) % 2**32
+        seed = self.split_seed(settings, VALIDATION_SEED)
         return self.make_splits(replace(settings, seed=seed, n_train=settings.n_test))[
             "train"
         ]

@@ -51,6 +51,31 @@ def test_identifiable_models_do_not_warn(model):
         model.fit(X, y)
 
 
+def _line(X, *, a, b, xp=np):
+    return a * X[:, :1] + b
+
+
+@pytest.mark.parametrize("b_start", [0.0, 0.5])
+def test_a_parameter_determined_at_zero_does_not_warn(b_start):
+    # Exact data whose intercept is 0: b is fitted to about 1e-10 and is fully
+    # determined; scaled by its own tiny value its column vanished, and it was
+    # said to be undetermined.
+    X = np.random.default_rng(0).normal(size=(200, 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        model = ParametricModel(_line, {"a": 1.0, "b": b_start}).fit(X, 2 * X[:, 0])
+    assert abs(model.params_["b"]) < 1e-6
+
+
+def test_a_parameter_that_changes_nothing_still_warns_at_zero():
+    def unused(X, *, a, b, xp=np):
+        return a * X[:, :1] + 0.0 * b
+
+    X = np.random.default_rng(0).normal(size=(200, 1))
+    with pytest.warns(IdentifiabilityWarning, match="'b' does not change the fit"):
+        ParametricModel(unused, {"a": 1.0, "b": 0.0}).fit(X, 2 * X[:, 0])
+
+
 def test_tall_jacobian_uses_the_thin_svd():
     # A fit on 200,000 residuals: the full U of the SVD would take 320 GB.
     from skhybrid.domain import check_identifiability

@@ -282,3 +282,21 @@ def test_noise_type_reaches_the_simulated_splits(system, noise_type, expected):
     splits = SYSTEMS[system].make_splits(settings)
     assert {data.noise_type for data in splits.values()} == {expected}
     assert SYSTEMS[system].noise_type(settings) == expected
+
+
+@pytest.mark.parametrize("system", ["pendulum", "double-pendulum", "dc-motor"])
+def test_every_seed_numpy_takes_makes_the_splits(system):
+    # The test and validation splits' seeds are offsets of the run's: at the
+    # top of numpy's range they wrap around instead of overflowing it.
+    from dataclasses import replace
+
+    from skhybrid.experiments import SYSTEMS, ExperimentSettings
+
+    settings = replace(ExperimentSettings.quick(seed=2**32 - 1), n_train=60, n_test=40)
+    splits = SYSTEMS[system].make_splits(settings)
+    assert {name: len(data.X) for name, data in splits.items()} == {
+        name: 60 if name == "train" else 40 for name in splits
+    }
+    assert len(SYSTEMS[system].validation_split(settings).X) == 40
+    # An ordinary seed's splits are unchanged: seed + 1000 and seed + 2000.
+    assert SYSTEMS[system].split_seed(ExperimentSettings.quick(seed=3), 1000) == 1003

@@ -7,8 +7,10 @@ over the held-out blocks; the lowest mean RMSE over the folds wins and is refitt
 on the whole records.
 """
 
+import contextlib
 import copy
 import inspect
+import threading
 import time
 import warnings
 from numbers import Integral
@@ -82,14 +84,40 @@ def _scored(arrays, n_init):
     )
 
 
+@contextlib.contextmanager
+def _kept_warnings(kept):
+    """Keep the warnings a job raises in ``kept``, to raise again in the caller.
+
+    A job run in a worker process (joblib's default backend) would otherwise
+    lose them. In a thread (joblib's threading backend) the warnings reach the
+    caller's own handlers, and ``warnings.catch_warnings`` is not thread-safe:
+    nothing is kept there.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    kept.extend((w.category, str(w.message)) for w in caught)
+
+
+def _warn_again(kept):
+    """Raise again, in the caller, the warnings a job kept."""
+    for category, message in kept:
+        warnings.warn(message, category, stacklevel=3)
+
+
 def _fit_physics(physics, U, Y):
     """Fit a clone of the shared physics on a fold's fit pieces."""
     t0 = time.perf_counter()
+    kept = []
     try:
-        fitted = clone(physics).fit(U, Y)
+        with _kept_warnings(kept):
+            fitted = clone(physics).fit(U, Y)
     except Exception as exc:  # noqa: BLE001 - its candidates then score inf
-        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
-    return fitted, None, time.perf_counter() - t0
+        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0, kept
+    return fitted, None, time.perf_counter() - t0, kept
 
 
 def _takes_random_state(estimator, factory):
@@ -122,7 +150,37 @@ def _fit_and_score(
         "score": np.inf,
         "error": None,
         "runs": None,
+        "warnings": [],
     }
+    with _kept_warnings(out["warnings"]):
+        return _fit_and_score_kept(
+            out,
+            estimator,
+            settings,
+            factory,
+            physics,
+            U_fit,
+            Y_fit,
+            U_test,
+            Y_test,
+            n_init,
+            seed,
+        )
+
+
+def _fit_and_score_kept(
+    out,
+    estimator,
+    settings,
+    factory,
+    physics,
+    U_fit,
+    Y_fit,
+    U_test,
+    Y_test,
+    n_init,
+    seed,
+):
     fitted_physics, physics_error = physics
     if factory and fitted_physics is None:
         out["error"] = f"the shared physics' fit failed: {physics_error}"
@@ -514,8 +572,10 @@ class SimulationSearchCV(BaseEstimator):
                 delayed(_fit_physics)(self.physics, u, y) for (u, y), _ in pieces
             )
         else:
-            physics = [(None, None, 0.0)] * n_splits
-        self.physics_fit_time_ = np.array([t for *_, t in physics])
+            physics = [(None, None, 0.0, [])] * n_splits
+        for *_, kept in physics:
+            _warn_again(kept)
+        self.physics_fit_time_ = np.array([t for *_, t, _ in physics])
         out = parallel(
             delayed(_fit_and_score)(
                 est,
@@ -530,6 +590,8 @@ class SimulationSearchCV(BaseEstimator):
             for _, est, settings, factory in rows
             for k in range(n_splits)
         )
+        for row in out:
+            _warn_again(row.pop("warnings"))
         out = [out[i * n_splits : (i + 1) * n_splits] for i in range(len(rows))]
         params = [{"candidate": name, **settings} for name, _, settings, _ in rows]
         if self.stack:

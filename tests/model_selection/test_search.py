@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from sklearn.base import BaseEstimator, clone
-from sklearn.exceptions import FitFailedWarning
+from sklearn.exceptions import ConvergenceWarning, FitFailedWarning
 from sklearn.frozen import FrozenEstimator
 from sklearn.utils import estimator_checks
 
@@ -445,6 +445,40 @@ def test_results_are_identical_with_one_and_two_jobs(records):
     assert_array_equal(
         one.simulate(U[0], Y[0][:N_INIT]), two.simulate(U[0], Y[0][:N_INIT])
     )
+
+
+class Warns(Gain):
+    """A gain whose fit warns, as a physics that stops short does."""
+
+    def fit(self, U, Y):
+        warnings.warn("stopped short on this fold", ConvergenceWarning, stacklevel=2)
+        return super().fit(U, Y)
+
+
+class WarningPhysics(CountingPhysics):
+    def fit(self, U, Y):
+        warnings.warn("the physics stopped short", ConvergenceWarning, stacklevel=2)
+        return super().fit(U, Y)
+
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_the_folds_warnings_reach_the_caller_from_every_worker(records, n_jobs):
+    # In worker processes (n_jobs=2) a fold's warnings would be lost; they are
+    # raised again in the caller, once per fold, as with n_jobs=1.
+    U, Y = records
+    family = [("gain", Warns()), ("corrected", corrected)]
+    search = SimulationSearchCV(
+        family, physics=WarningPhysics(), n_init=N_INIT, n_jobs=n_jobs
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        search.fit(U, Y)
+    messages = [str(w.message) for w in caught if w.category is ConvergenceWarning]
+    n_splits = search.n_splits_
+    # Each fold's fit of the gain and of the shared physics, then the refit's.
+    refit = search.best_candidate_ == "gain"
+    assert messages.count("stopped short on this fold") == n_splits + refit
+    assert messages.count("the physics stopped short") == n_splits + (not refit)
 
 
 # -- parameters and the scikit-learn API ---------------------------------------------

@@ -172,7 +172,9 @@ def _build_parser():
         type=_positive_int,
         default=2,
         metavar="N",
-        help="models fitted in parallel; -1 uses every core (default: 2)",
+        help="joblib workers: a simulated system's models, or a measured "
+        "system's (candidate, fold) fits, run in parallel; -1 uses every core "
+        "(default: 2)",
     )
     run.add_argument(
         "--seeds",

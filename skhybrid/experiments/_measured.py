@@ -241,8 +241,9 @@ def run_system(
     quick : bool, default=False
         Shorter fits and fewer candidates (a smoke test, not a figure).
     n_jobs : int, default=2
-        Models fitted in parallel with joblib (-1: all cores), as the command
-        line's ``--n-jobs``.
+        Workers of joblib (-1: all cores), as the command line's ``--n-jobs``:
+        the models are fitted one after another, each model's (candidate,
+        fold) fits in parallel.
     overwrite : bool, default=False
         Replace a previous run in ``out``: it is moved aside and deleted once
         the new run has started (its records read and checked).
@@ -331,7 +332,8 @@ def run_measured(
         seed + ``k``) and every seed refits its choices (an int is one seed,
         None the default seeds).
     n_jobs : int, default=2
-        Models fitted in parallel with joblib (-1: all cores), as ``--n-jobs``.
+        Workers of joblib (-1: all cores), as ``--n-jobs``: each model's
+        (candidate, fold) fits run in parallel.
     overwrite : bool, default=False
         Replace a previous run in ``out``.
     progress : bool, default=True

@@ -339,7 +339,11 @@ class MeasuredSystem:
         """
         return zoo(self, settings.quick)
 
-    def job(self, name, model, result, deps, sink=None):
+    #: Each model searches over folds: the runner fits the models one at a
+    #: time, each search's (candidate, fold) fits on every worker.
+    parallel_folds = True
+
+    def job(self, name, model, result, deps, sink=None, n_jobs=1, n_threads=None):
         """The joblib call that chooses and refits one model.
 
         Parameters
@@ -354,6 +358,11 @@ class MeasuredSystem:
             The fits of the models it requires.
         sink : object or None, default=None
             Where networks report their epochs.
+        n_jobs : int, default=1
+            Workers of the model's search (its candidates and folds).
+        n_threads : int or None, default=None
+            Threads of torch and the BLAS in the process that refits the chosen
+            candidate, as in each worker; None leaves them.
 
         Returns
         -------
@@ -362,6 +371,7 @@ class MeasuredSystem:
             :func:`~skhybrid.experiments._measured_zoo.fit_model`.
         """
         ctx = _context(result, searched=result.searched.get(name))
+        ctx = replace(ctx, n_jobs=n_jobs, n_threads=n_threads)
         return delayed(fit_model)(name, model, ctx, deps, sink)
 
     def epochs_at_most(self, models, result):

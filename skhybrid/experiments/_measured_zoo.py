@@ -16,6 +16,7 @@ written once; each model of the zoo is a :class:`ZooModel`: its candidates, how
 one is fitted, and what it needs from models fitted before it.
 """
 
+import contextlib
 import functools
 import hashlib
 import itertools
@@ -177,6 +178,12 @@ class MeasuredContext:
         The model's search made at the run's first seed (``selection``, its
         chosen candidate's out-of-fold ``runs`` and the ``seed``): the chosen
         candidate is refitted at this seed, not searched again. None searches.
+    n_jobs : int or None, default=None
+        Workers of the search over candidates and folds (joblib's).
+    n_threads : int or None, default=None
+        Threads of torch and the BLAS while the model is chosen and refitted
+        in this process, the same as in each worker (so a refit computes what
+        it would in a worker); None leaves them.
     """
 
     system: object
@@ -190,6 +197,8 @@ class MeasuredContext:
     label: str = ""
     cache: object = None
     searched: object = None
+    n_jobs: object = None
+    n_threads: object = None
 
 
 def _watch(estimator, ctx):
@@ -574,6 +583,10 @@ class _ZooCandidate(BaseEstimator):
             Fitted (``model_``).
         """
         ctx = self.ctx
+        try:  # in a worker of the search: the user's __main__ functions by name
+            expose_main_functions(ctx.system.spec)
+        except AttributeError:  # a system whose spec is not bound
+            pass
         if self.random_state is not None and not self.model.deterministic:
             ctx = replace(ctx, seed=int(self.random_state))
         physics = getattr(self.physics, "model_", self.physics)
@@ -707,6 +720,7 @@ def choose_and_refit(model, ctx, deps):
         physics=physics,
         cv=RecordBlockSplit(N_SPLITS, n_init=n_init),
         random_state=ctx.seed,
+        n_jobs=ctx.n_jobs,
     )
     results, chosen, runs = None, None, None
     try:
@@ -865,8 +879,29 @@ def expose_main_functions(spec):
             setattr(main, name, func)
 
 
+@contextlib.contextmanager
+def _threads(n_threads):
+    """At most ``n_threads`` threads in torch and the BLAS (None: as they are)."""
+    if n_threads is None:
+        yield
+        return
+    import torch
+    from threadpoolctl import threadpool_limits
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(n_threads)
+    try:
+        with threadpool_limits(limits=n_threads):
+            yield
+    finally:
+        torch.set_num_threads(before)
+
+
 def fit_model(name, model, ctx, deps, sink=None):
-    """Choose and refit one model of the zoo (runs in a joblib worker).
+    """Choose and refit one model of the zoo.
+
+    The run calls it in its own process, one model at a time; the model's
+    search runs its candidates and folds on ``ctx.n_jobs`` workers.
 
     No test record is read here: the test records are simulated once every
     choice is sealed (:func:`skhybrid.experiments._sealed.score_tests`).
@@ -900,7 +935,11 @@ def fit_model(name, model, ctx, deps, sink=None):
         expose_main_functions(ctx.system.spec)
     except AttributeError:  # a system whose spec is not bound: nothing to name
         pass
-    with warnings.catch_warnings(record=True) as caught, interrupts_raise():
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        interrupts_raise(),
+        _threads(ctx.n_threads),
+    ):
         warnings.simplefilter("always")
         start = time.perf_counter()
         chosen, selection, runs = choose_and_refit(model, ctx, deps)

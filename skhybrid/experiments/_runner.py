@@ -188,12 +188,21 @@ def run_experiment(
     backend, _ = get_active_backend()
     client = _dask_client(backend)
     cores = os.cpu_count() or 1
+    # A system whose models each search over folds (a measured one) fits its
+    # models one at a time, each search running its (candidate, fold) fits on
+    # every worker: a long search never leaves a core idle. A simulated
+    # system's models are single fits, run side by side.
     widest = max((len(stage) for stage in stages), default=1)
     if n_jobs in (-1, None):
         workers = -1 if client is not None else cores
+    elif system.parallel_folds:
+        workers = max(1, n_jobs)
     else:
         workers = max(1, min(n_jobs, widest))
     n_threads = max(1, cores // max(workers, 1))
+    model_workers, fold_workers = workers, 1
+    if system.parallel_folds:
+        model_workers, fold_workers = 1, workers
     bars = None
     if progress:
         budget = system.epochs_at_most({name: zoo[name] for name in todo}, result)
@@ -209,14 +218,22 @@ def run_experiment(
     def jobs(stage):
         for name in stage:
             needs = {k: deps[k] for k in getattr(zoo[name], "requires", ())}
-            yield system.job(name, zoo[name], result, needs, sink)
+            yield system.job(
+                name,
+                zoo[name],
+                result,
+                needs,
+                sink,
+                n_jobs=fold_workers,
+                n_threads=n_threads,
+            )
 
     try:
         for stage in stages:
             with _local_threads(backend, n_threads):
-                outputs = Parallel(n_jobs=workers, return_as="generator_unordered")(
-                    jobs(stage)
-                )
+                outputs = Parallel(
+                    n_jobs=model_workers, return_as="generator_unordered"
+                )(jobs(stage))
                 for name, out in outputs:
                     _record(result, name, out, folder)
                     if name in needed:

@@ -241,7 +241,12 @@ class System:
         """
         return sum(epoch_budget(model) for model in models.values())
 
-    def job(self, name, model, result, deps, sink=None):
+    #: Whether each model searches over folds (the runner then fits the models
+    #: one at a time, each search on every worker): a simulated system's
+    #: models are single fits, run side by side.
+    parallel_folds = False
+
+    def job(self, name, model, result, deps, sink=None, n_jobs=1, n_threads=None):
         """The joblib call that fits one model and predicts every split.
 
         Parameters
@@ -256,6 +261,8 @@ class System:
             Unused: no model of the zoo requires another.
         sink : object or None, default=None
             Where its networks report their epochs.
+        n_jobs, n_threads : int or None
+            Unused: the model is one fit, in its own worker.
 
         Returns
         -------

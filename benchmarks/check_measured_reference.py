@@ -114,6 +114,20 @@ REFERENCE = {
         "choices_sha256": "b0926b3cac782caa79343af6babfb1eb133ffaf4c2becabde89a9a8290eab68e",  # noqa: E501
         "selection_sha256": "db8b24a4cf0bdbfe3df473aa0206d568eaea11a5f78757ab194844f4fe1b8bf8",  # noqa: E501
     },
+    "silverbox": {
+        "chosen": {
+            "0": "physics + dense ensemble",
+            "1": "physics + dense ensemble",
+            "2": "physics + dense ensemble",
+        },
+        "cv_rmse": {
+            "0": 0.20846601249448324,
+            "1": 0.20846601249448324,
+            "2": 0.20846601249448324,
+        },
+        "choices_sha256": "1479779e5e3b4222f68ebff809493b5fdb237c3ccc9e6b0ec3145e1ac96e56e2",  # noqa: E501
+        "selection_sha256": "4ce0b5e8ccff85f1fa41294e364daea011e41e4b58f5854148c6d663a5169297",  # noqa: E501
+    },
 }
 
 #: The CPU kernels a release run is recorded with (this project's machine's):

@@ -472,7 +472,13 @@ class DomainModel(
             return np.asarray(fun(z * p_scale), dtype=float) / r_scale
 
         n_records = len(X) if isinstance(X, (list, tuple)) else 1
-        scaled_fun = counting(scaled_fun, self.max_nfev, n_records)
+        # scipy's max_nfev counts no evaluation made for a finite-difference
+        # Jacobian; each of its evaluations is followed by at most one such
+        # Jacobian of n_free evaluations: the progress shows that bound.
+        limit = self.max_nfev
+        if limit is not None and not callable(jac):
+            limit = limit * (1 + spec.n_free)
+        scaled_fun = counting(scaled_fun, limit, n_records)
 
         scaled_jac = jac
         if callable(jac):

@@ -17,7 +17,11 @@ def fit_progress(hook):
     :meth:`StateSpaceModel.fit_simulation`, their several starts) calls
     ``hook(nfev, max_nfev, n_records)`` after each evaluation of its residuals:
     ``nfev`` counts the evaluations of the current least-squares fit from 1,
-    ``max_nfev`` is the model's limit (None where scipy's default applies) and
+    those of a finite-difference Jacobian included; ``max_nfev`` is the most
+    it can make (None where scipy's default limit applies): the model's
+    ``max_nfev``, times one plus the number of free parameters where the
+    Jacobian is taken by finite differences (scipy's ``max_nfev`` counts none
+    of those), and
     ``n_records`` how many records (or multiple-shooting segments) the fit
     simulates. A long physics fit can so show how far it has gone against its
     budget. The hook runs in the fitting thread: keep it quick, and let it raise

@@ -122,7 +122,10 @@ def test_fit_progress_reports_every_evaluation_against_max_nfev():
     with fit_progress(lambda *event: seen.append(event)):
         _line_model().fit(X, 2 * X[:, 0] + 1)
     assert [n for n, _, _ in seen] == list(range(1, len(seen) + 1))
-    assert {(limit, records) for _, limit, records in seen} == {(50, 1)}
+    # max_nfev=50 steps, each followed by a finite-difference Jacobian of the
+    # two free parameters: at most 150 evaluations, and never more.
+    assert {(limit, records) for _, limit, records in seen} == {(150, 1)}
+    assert all(n <= limit for n, limit, _ in seen)
     # Outside the context nothing is reported.
     _line_model().fit(X, 2 * X[:, 0] + 1)
     assert len(seen) == len({n for n, _, _ in seen})
@@ -147,7 +150,7 @@ def test_a_physics_fit_shows_its_evaluations_of_max_nfev_and_its_segments(tmp_pa
     with fit_progress(physics_hook(bars.sink, "physics on segments of 100 samples")):
         _line_model().fit(X, 2 * X[:, 0] + 1)
     bars._update()
-    assert bars.physics.total == 50 and bars.physics.n >= 1
+    assert bars.physics.total == 150 and bars.physics.n >= 1
     assert "physics on segments of 100 samples, 1 record" in str(bars.physics)
     # Epochs and physics events share the sink: neither counts as the other.
     assert bars.sink.poll()[0] == 0
@@ -170,3 +173,23 @@ def test_without_a_terminal_a_long_physics_fit_logs_a_line():
             "evaluations of at most 400"
         ),
     ]
+
+
+def test_a_fit_stopped_at_max_nfev_never_shows_more_than_its_limit():
+    import warnings
+
+    from skhybrid.domain import ParametricModel, fit_progress
+
+    def curve(X, *, a, b, c, xp=np):
+        return a * xp.exp(b * X[:, :1]) + c
+
+    X = np.linspace(0, 1, 40)[:, None]
+    seen = []
+    with warnings.catch_warnings(), fit_progress(lambda *event: seen.append(event)):
+        warnings.simplefilter("ignore")  # it stops short, on purpose
+        model = ParametricModel(curve, {"a": 1.0, "b": 1.0, "c": 0.0}, max_nfev=5)
+        model.fit(X, 3 * np.exp(-2 * X[:, 0]) + 1)
+    # scipy's five evaluations and a finite-difference Jacobian of three
+    # parameters after each: more than 5 calls, at most 5 * (1 + 3).
+    assert {limit for _, limit, _ in seen} == {20}
+    assert 5 < max(n for n, _, _ in seen) <= 20

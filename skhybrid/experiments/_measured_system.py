@@ -14,12 +14,12 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from joblib import delayed
 
+from skhybrid.experiments._measured_search import fit_model
 from skhybrid.experiments._measured_zoo import (
     N_SPLITS,
     MeasuredContext,
     _rmse,
     epochs_at_most,
-    fit_model,
     zoo,
 )
 from skhybrid.experiments._pickling import check_picklable
@@ -368,7 +368,7 @@ class MeasuredSystem:
         -------
         call : tuple
             A :func:`joblib.delayed` call of
-            :func:`~skhybrid.experiments._measured_zoo.fit_model`.
+            :func:`~skhybrid.experiments._measured_search.fit_model`.
         """
         ctx = _context(result, searched=result.searched.get(name))
         ctx = replace(ctx, n_jobs=n_jobs, n_threads=n_threads)

@@ -27,6 +27,7 @@ from skhybrid.cli import main
 from skhybrid.experiments import (
     SystemSpec,
     _measured,
+    _measured_search,
     _measured_system,
     _measured_zoo,
     _runner,
@@ -128,8 +129,8 @@ def no_training(monkeypatch):
     def fail(*args, **kwargs):  # pragma: no cover - must not be reached
         raise AssertionError("training started")
 
-    monkeypatch.setattr(_measured_zoo, "fit_model", fail)
-    monkeypatch.setattr(_measured_zoo, "choose_and_refit", fail)
+    monkeypatch.setattr(_measured_search, "fit_model", fail)
+    monkeypatch.setattr(_measured_search, "choose_and_refit", fail)
     monkeypatch.setattr(_measured.MeasuredSystem, "new_result", fail)
 
 
@@ -332,7 +333,7 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     # starts from is read back from the folder.
     axis(interrupt=False)
     fitted = []
-    fit_model = _measured_zoo.fit_model
+    fit_model = _measured_search.fit_model
 
     def counting(name, *args, **kwargs):
         fitted.append(name)

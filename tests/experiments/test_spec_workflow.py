@@ -18,7 +18,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
-from skhybrid.experiments import SystemSpec, _measured_zoo, run_system
+from skhybrid.experiments import SystemSpec, _measured_search, _measured_zoo, run_system
 
 MACHINE = textwrap.dedent(
     '''
@@ -123,12 +123,12 @@ def _canonical_hash(selection):
 def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch):
     searches = []
 
-    class CountedSearch(_measured_zoo.SimulationSearchCV):
+    class CountedSearch(_measured_search.SimulationSearchCV):
         def fit(self, U, Y):
             searches.append(self.random_state)
             return super().fit(U, Y)
 
-    monkeypatch.setattr(_measured_zoo, "SimulationSearchCV", CountedSearch)
+    monkeypatch.setattr(_measured_search, "SimulationSearchCV", CountedSearch)
     out = tmp_path / "run"
     spec = machine.make_spec(out=out)
     summary = run_system(spec, out, quick=True, n_jobs=1)

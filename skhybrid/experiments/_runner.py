@@ -26,6 +26,20 @@ __all__ = ["ExperimentResult", "run_experiment"]
 logger = logging.getLogger(__name__)
 
 
+def _threads_per_worker(client, cores, workers):
+    """Threads of each worker: a Dask worker's own, or ``cores / workers`` locally.
+
+    A model fitted in the run's own process (a measured model's refit) is given
+    as many, so it computes what a worker would.
+    """
+    if client is not None:
+        try:
+            return max(1, min(client.nthreads().values()))
+        except (AttributeError, ValueError):  # no worker yet
+            return 1
+    return max(1, cores // max(workers, 1))
+
+
 def _dask_client(backend):
     """The Dask client of joblib's active backend, or None."""
     if type(backend).__name__ == "DaskDistributedBackend":
@@ -199,7 +213,7 @@ def run_experiment(
         workers = max(1, n_jobs)
     else:
         workers = max(1, min(n_jobs, widest))
-    n_threads = max(1, cores // max(workers, 1))
+    n_threads = _threads_per_worker(client, cores, workers)
     model_workers, fold_workers = workers, 1
     if system.parallel_folds:
         model_workers, fold_workers = 1, workers

@@ -110,6 +110,10 @@ def _small_dense(ctrl_c=None):
     return make
 
 
+#: The zoo's dense network, before any test replaces it.
+_REAL_DENSE = _measured_zoo._dense
+
+
 @pytest.fixture
 def axis(monkeypatch, ctrl_c_at_epoch):
     """Register :class:`SyntheticAxis` as ``emps``; ``axis(True)`` presses Ctrl-C
@@ -437,8 +441,11 @@ def test_dask_option_is_used_for_measured_systems(tmp_path, capsys, axis, monkey
 
 
 @pytest.mark.slow  # two clusters' worth of process starts
-def test_dask_local_measured_run_gives_the_local_table(tmp_path, axis):
+def test_dask_local_measured_run_gives_the_local_table(tmp_path, axis, monkeypatch):
     pytest.importorskip("distributed", reason=NO_DASK)
+    # The zoo's own networks: the fixture's small one is patched into this
+    # process only, which the local run's refits use and no worker sees.
+    monkeypatch.setattr(_measured_zoo, "_dense", _REAL_DENSE)
     argv = ["run", "emps", "--quick", "--data", str(tmp_path), "--no-progress"]
     argv += ["--n-jobs", "2"]
     assert main([*argv, "--out", str(tmp_path / "local")]) == 0

@@ -321,7 +321,18 @@ class MeasuredSystem:
         folder.check_records(result.store_key, records_digest(*result.train))
 
     def progress_label(self, settings):
-        """What the progress bars call this run: the system and its seed."""
+        """What the progress bars call this run: the system and its seed.
+
+        Parameters
+        ----------
+        settings : MeasuredSettings
+            The run's settings (its seed).
+
+        Returns
+        -------
+        label : str
+            ``"NAME seed S"``.
+        """
         return f"{self.name} seed {settings.seed}"
 
     def model_zoo(self, settings):
@@ -529,9 +540,11 @@ class MeasuredResult:
             self.validation_runs[name] = [runs[i] for i in sorted(runs)]
 
     def score(self):
-        """Nothing to score yet: the test records are scored once the
-        selection of every seed is sealed
-        (:func:`~skhybrid.experiments._sealed.score_tests`)."""
+        """Nothing to score yet: the test records are scored once sealed.
+
+        They are read and scored once the selection of every seed is sealed
+        (:func:`~skhybrid.experiments._sealed.score_tests`).
+        """
 
     def validation_blocks(self):
         """The held-out blocks of each fold every choice is made on.

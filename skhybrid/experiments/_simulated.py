@@ -111,8 +111,11 @@ class ExperimentResult:
             self.predictions[split][name] = pred
 
     def score(self):
-        """Score every model on every test split, then the chosen model's
-        stochastic part (on the validation split)."""
+        """Score every model on every test split, then the chosen model's part.
+
+        Fills :attr:`rows` (``results.csv``) and :attr:`stochastic`: the model
+        chosen on the validation split, its residual tests and its band.
+        """
         for split in self.test_splits:
             for model in self.predictions[split]:
                 self.rows.extend(self.model_rows(split, model))

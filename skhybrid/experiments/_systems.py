@@ -221,7 +221,18 @@ class System:
         """
 
     def progress_label(self, settings):
-        """What the progress bars call this run."""
+        """What the progress bars call this run.
+
+        Parameters
+        ----------
+        settings : ExperimentSettings
+            The run's settings.
+
+        Returns
+        -------
+        label : str
+            The system's name.
+        """
         return self.name
 
     def epochs_at_most(self, models, result):

@@ -5,6 +5,11 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.hybrid._record_checks import _check_simulate_options
+from skhybrid.simulation import (
+    check_trajectories,
+    pack_trajectories,
+    stack_trajectories,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import HasMethods, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
@@ -205,16 +210,22 @@ of them
             ``estimator.simulate(input_transform(inputs), initial)``.
         """
         self._validate_params()
+        U_list, Y0_list, form = check_trajectories(inputs, initial)
         _check_simulate_options(self, init, n_samples, return_std, ("measured",))
         expected = self.__dict__.get("n_features_in_")  # set by fit only
-        if expected is not None and np.ndim(inputs) == 2:
-            n_inputs = np.shape(inputs)[1]
-            if n_inputs != expected:
-                raise ValueError(
-                    f"inputs has {n_inputs} column(s); this "
-                    f"{type(self).__name__} was fitted on {expected} input(s)."
-                )
-        return self.estimator.simulate(self.inputs(inputs), initial)
+        n_inputs = U_list[0].shape[1]
+        if expected is not None and n_inputs != expected:
+            raise ValueError(
+                f"inputs has {n_inputs} column(s); this "
+                f"{type(self).__name__} was fitted on {expected} input(s)."
+            )
+        runs = [
+            np.asarray(self.estimator.simulate(self.inputs(u), y0), dtype=float)
+            for u, y0 in zip(U_list, Y0_list, strict=True)
+        ]
+        runs = [run.reshape(len(run), -1) for run in runs]
+        Y, lengths = stack_trajectories(runs)
+        return pack_trajectories(Y, lengths, form)
 
     def __getattr__(self, name):
         # The wrapped model's fitted attributes (and its other data attributes,

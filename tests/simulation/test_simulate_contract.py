@@ -92,6 +92,8 @@ def _fit(est):
         return est.fit(list(U_seq), list(X_seq)), est.n_steps, N_STATES, N_INPUTS
     if name == "PhysicsCorrection":  # whole records, one output
         return est.fit(list(U_seq), list(X_seq[:, :, :1])), 1, 1, N_INPUTS
+    if name == "TransformedInputSimulator":  # frozen: fit validates the records
+        return est.fit(list(U_seq), list(X_seq[:, :, :1])), 1, 1, N_INPUTS
     n_steps = est.get_params(deep=False).get("n_steps", 1)
     X, y = WindowLayout(N_STATES, N_INPUTS, n_steps).make_rows(list(X_seq), list(U_seq))
     return est.fit(X, y), n_steps, N_STATES, N_INPUTS

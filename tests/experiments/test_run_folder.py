@@ -415,7 +415,14 @@ def test_second_run_into_a_busy_folder_is_refused(tmp_path, capsys, no_training)
             time.sleep(0.05)
     finally:
         first.send_signal(signal.SIGINT)
-        _, err = first.communicate(timeout=60)
+        try:
+            _, err = first.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            # A run that did not stop must not go on beside the rest of the
+            # suite (a lost full run held a core for the suite's remainder).
+            first.kill()
+            first.communicate()
+            raise
     _ended_by_ctrl_c(first, err)
     assert not (out / ".lock").exists()
     assert json.loads((out / "run.json").read_text())["status"] == "interrupted"

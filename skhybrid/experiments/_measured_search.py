@@ -401,6 +401,7 @@ def _threads(n_threads):
     from threadpoolctl import threadpool_limits
 
     before = torch.get_num_threads()
+    n_threads = min(n_threads, before)  # a limit only: never more than before
     torch.set_num_threads(n_threads)
     try:
         with threadpool_limits(limits=n_threads):

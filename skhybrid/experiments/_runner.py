@@ -239,7 +239,9 @@ def run_experiment(
                 needs,
                 sink,
                 n_jobs=fold_workers,
-                n_threads=n_threads,
+                # With workers, a refit in this process takes their threads;
+                # alone, it keeps this process's own.
+                n_threads=n_threads if fold_workers != 1 else None,
             )
 
     try:

@@ -7,7 +7,6 @@ over the held-out blocks; the lowest mean RMSE over the folds wins and is refitt
 on the whole records.
 """
 
-import contextlib
 import copy
 import inspect
 import threading
@@ -84,9 +83,8 @@ def _scored(arrays, n_init):
     )
 
 
-@contextlib.contextmanager
-def _kept_warnings(kept):
-    """Keep the warnings a job raises in ``kept``, to raise again in the caller.
+def _keeping_warnings(func, *args):
+    """``func(*args)`` and the warnings it raised, to raise again in the caller.
 
     A job run in a worker process (joblib's default backend) would otherwise
     lose them. In a thread (joblib's threading backend) the warnings reach the
@@ -94,12 +92,11 @@ def _kept_warnings(kept):
     nothing is kept there.
     """
     if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+        return func(*args), []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        yield
-    kept.extend((w.category, str(w.message)) for w in caught)
+        result = func(*args)
+    return result, [(w.category, str(w.message)) for w in caught]
 
 
 def _warn_again(kept):
@@ -111,13 +108,11 @@ def _warn_again(kept):
 def _fit_physics(physics, U, Y):
     """Fit a clone of the shared physics on a fold's fit pieces."""
     t0 = time.perf_counter()
-    kept = []
     try:
-        with _kept_warnings(kept):
-            fitted = clone(physics).fit(U, Y)
+        fitted = clone(physics).fit(U, Y)
     except Exception as exc:  # noqa: BLE001 - its candidates then score inf
-        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0, kept
-    return fitted, None, time.perf_counter() - t0, kept
+        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+    return fitted, None, time.perf_counter() - t0
 
 
 def _takes_random_state(estimator, factory):
@@ -150,37 +145,7 @@ def _fit_and_score(
         "score": np.inf,
         "error": None,
         "runs": None,
-        "warnings": [],
     }
-    with _kept_warnings(out["warnings"]):
-        return _fit_and_score_kept(
-            out,
-            estimator,
-            settings,
-            factory,
-            physics,
-            U_fit,
-            Y_fit,
-            U_test,
-            Y_test,
-            n_init,
-            seed,
-        )
-
-
-def _fit_and_score_kept(
-    out,
-    estimator,
-    settings,
-    factory,
-    physics,
-    U_fit,
-    Y_fit,
-    U_test,
-    Y_test,
-    n_init,
-    seed,
-):
     fitted_physics, physics_error = physics
     if factory and fitted_physics is None:
         out["error"] = f"the shared physics' fit failed: {physics_error}"
@@ -568,16 +533,19 @@ class SimulationSearchCV(BaseEstimator):
         ]
         parallel = Parallel(n_jobs=self.n_jobs, verbose=self.verbose)
         if any(factory for *_, factory in rows):
-            physics = parallel(
-                delayed(_fit_physics)(self.physics, u, y) for (u, y), _ in pieces
+            kept = parallel(
+                delayed(_keeping_warnings)(_fit_physics, self.physics, u, y)
+                for (u, y), _ in pieces
             )
+            for _, warned in kept:
+                _warn_again(warned)
+            physics = [fit for fit, _ in kept]
         else:
-            physics = [(None, None, 0.0, [])] * n_splits
-        for *_, kept in physics:
-            _warn_again(kept)
-        self.physics_fit_time_ = np.array([t for *_, t, _ in physics])
+            physics = [(None, None, 0.0)] * n_splits
+        self.physics_fit_time_ = np.array([t for *_, t in physics])
         out = parallel(
-            delayed(_fit_and_score)(
+            delayed(_keeping_warnings)(
+                _fit_and_score,
                 est,
                 settings,
                 factory,
@@ -590,8 +558,9 @@ class SimulationSearchCV(BaseEstimator):
             for _, est, settings, factory in rows
             for k in range(n_splits)
         )
-        for row in out:
-            _warn_again(row.pop("warnings"))
+        for _, warned in out:
+            _warn_again(warned)
+        out = [row for row, _ in out]
         out = [out[i * n_splits : (i + 1) * n_splits] for i in range(len(rows))]
         params = [{"candidate": name, **settings} for name, _, settings, _ in rows]
         if self.stack:

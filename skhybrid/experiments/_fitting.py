@@ -52,7 +52,10 @@ def interrupts_raise():
     far, as if training had finished: a model cut short would be recorded as
     complete. Here a SIGINT is remembered and raised again once the body returns.
     Only the main thread of a process receives signals: elsewhere (a Dask worker's
-    thread) this does nothing.
+    thread) this does nothing. A process that ignores SIGINT (started as a
+    background job of a script, whose Ctrl-C is not meant for it) keeps ignoring
+    it here too, as Python does everywhere else in it: a Ctrl-C is never
+    ignored before the fits and obeyed during them.
     """
     hit = []
 
@@ -60,9 +63,14 @@ def interrupts_raise():
         hit.append(signum)
         raise KeyboardInterrupt
 
-    try:
-        previous = signal.signal(signal.SIGINT, handler)
-    except ValueError:  # not the main thread
+    installed = False
+    if signal.getsignal(signal.SIGINT) != signal.SIG_IGN:
+        try:
+            previous = signal.signal(signal.SIGINT, handler)
+            installed = True
+        except ValueError:  # not the main thread
+            pass
+    if not installed:
         yield
         return
     try:

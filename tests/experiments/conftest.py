@@ -22,9 +22,13 @@ def ctrl_c_at_epoch():
     """The skorch callback that presses Ctrl-C during a network's training.
 
     skorch catches the KeyboardInterrupt inside ``fit`` and returns the network
-    as if trained: a run must still stop and not record that model.
+    as if trained: a run must still stop and not record that model. The test
+    runs with Python's own SIGINT handler, as in a terminal: the suite itself
+    may run as a background job of a script, which ignores SIGINT.
     """
-    return CtrlCAtEpoch
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield CtrlCAtEpoch
+    signal.signal(signal.SIGINT, previous)
 
 
 @pytest.fixture

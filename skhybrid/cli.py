@@ -718,13 +718,21 @@ def _measured_lines(run):
         f"  sealed selection sha256 {run.sha256[:16]}... (selection.json), written "
         "before the test records were read\n"
     )
+    from skhybrid.experiments._measured_report import spread_text
+
     _, chosen = run.test_summary()
     seeds = ", ".join(map(str, run.seeds))
+    first = run.results[0]
+    models = set(run.chosen().values())
+    # One model at every seed, none of whose fits depends on the seed.
+    deterministic = len(models) == 1 and all(
+        (first.fits.get(m, {}).get("selection") or {}).get("deterministic")
+        for m in models
+    )
     for split, spread in chosen.items():
-        if spread["mean"] is None:
-            text = "failed"
-        else:
-            text = f"{spread['mean']:.4g} +- {spread['std']:.2g} {unit}"
+        text = spread_text(
+            spread, deterministic=deterministic, unit=unit, plus_minus="+-"
+        )
         sys.stdout.write(f"  {split}: {text} (seeds {seeds})\n")
 
 

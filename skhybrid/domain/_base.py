@@ -471,7 +471,10 @@ class DomainModel(
         def scaled_fun(z):
             return np.asarray(fun(z * p_scale), dtype=float) / r_scale
 
-        n_records = len(X) if isinstance(X, (list, tuple)) else 1
+        # Records as a list, or stacked (records, times, inputs) by a fit on
+        # whole records; a 2-D X holds the rows of one.
+        several = isinstance(X, (list, tuple)) or np.ndim(X) == 3
+        n_records = len(X) if several else 1
         # scipy's max_nfev counts no evaluation made for a finite-difference
         # Jacobian; each of its evaluations is followed by at most one such
         # Jacobian of n_free evaluations: the progress shows that bound.

@@ -246,16 +246,47 @@ def _cv_text(summary, model):
     return f"{mean:.4g} &plusmn; {std:.2g}"
 
 
-def _figure_text(spread, reason=None, deterministic=False):
+def spread_text(spread, *, deterministic=False, unit="", plus_minus="±"):
+    """A figure over seeds in words: its mean, and its spread where it has one.
+
+    Parameters
+    ----------
+    spread : dict
+        ``{mean, std, by_seed, n_failed}`` over the run's seeds.
+    deterministic : bool, default=False
+        Whether no fit of the model depends on the seed.
+    unit : str, default=""
+        Written after the figure.
+    plus_minus : str, default="±"
+        The sign between mean and standard deviation.
+
+    Returns
+    -------
+    text : str
+        ``"mean ± std"``; ``"mean (deterministic)"`` for a model that cannot
+        vary with the seed; ``"mean (one seed)"`` where a single seed scored,
+        which gives no spread (never "± 0"); ``"failed"`` where none did.
+    """
     if spread["mean"] is None:
-        return "failed" if reason is None else f"failed ({html.escape(reason)})"
+        return "failed"
+    unit = f" {unit}" if unit else ""
+    scored = [v for v in spread.get("by_seed", []) if v is not None]
     if deterministic and spread["std"] == 0:
         # The same fit at every seed: no spread to show.
-        return f"{spread['mean']:.4g} (deterministic)"
-    text = f"{spread['mean']:.4g} &plusmn; {spread['std']:.2g}"
+        text = f"{spread['mean']:.4g}{unit} (deterministic)"
+    elif len(scored) == 1:
+        text = f"{spread['mean']:.4g}{unit} (one seed)"
+    else:
+        text = f"{spread['mean']:.4g} {plus_minus} {spread['std']:.2g}{unit}"
     if spread.get("n_failed"):
         text += f" ({spread['n_failed']} failed)"
     return text
+
+
+def _figure_text(spread, reason=None, deterministic=False):
+    if spread["mean"] is None:
+        return "failed" if reason is None else f"failed ({html.escape(reason)})"
+    return html.escape(spread_text(spread, deterministic=deterministic))
 
 
 def measured_section(run, figure):

@@ -361,9 +361,10 @@ class ProgressBars:
         if now - self._logged_at >= self.log_interval:
             self._logged_at = now
             of = "" if limit is None else f" of at most {limit}"
+            evaluations = "evaluation" if nfev == 1 else "evaluations"
             self.stream.write(
                 f"{self.description}: physics fit ({what}): {nfev} residual "
-                f"evaluations{of}\n"
+                f"{evaluations}{of}\n"
             )
             self.stream.flush()
 

@@ -249,13 +249,18 @@ def test_published_figures_are_data_with_sources():
     # exists (its linear ARX is the linear reference).
     assert set(PUBLISHED) == set(MEASURED) - {"friction-damper"}
     assert PUBLISHED["wiener-hammerstein"]["test"]["linear (LTI SS)"][0] == 43.4
-    assert PUBLISHED["coupled-electric-drives"]["test_2"]["linear (LTI SS; n_init = 4)"][0] == 0.384
+    assert (
+        PUBLISHED["coupled-electric-drives"]["test_2"]["linear (LTI SS; n_init = 4)"][0]
+        == 0.384
+    )
     # dynoNet's 2.64 mm is a figure of the estimation record, listed apart.
     assert "dynoNet" not in str(PUBLISHED["emps"]["test"])
     other = PUBLISHED["emps"]["estimation record (another protocol)"]
     assert other["dynoNet"][0] == 2.64
     assert PUBLISHED["emps"]["test"]["state of the art (CT-SUBNET)"][0] == 4.61
-    assert PUBLISHED["cascaded-tanks"]["test"]["linear (LTI SS; n_init = 5)"][0] == 0.588
+    assert (
+        PUBLISHED["cascaded-tanks"]["test"]["linear (LTI SS; n_init = 5)"][0] == 0.588
+    )
     for splits in PUBLISHED.values():
         for table in splits.values():
             for value, source in table.values():
@@ -304,3 +309,19 @@ def test_silverbox_quick_run(shared_data_dir, tmp_path):
     assert fits["physics"]["selection"]["segment"] == 512
     assert json.loads((out / "results.json").read_text())["systems"]["silverbox"]
     assert (out / "selection.json").is_file()
+
+
+def test_a_figure_over_seeds_says_what_its_spread_is():
+    from skhybrid.experiments._measured_report import spread_text
+
+    three = {"mean": 0.2, "std": 0.01, "by_seed": [0.19, 0.2, 0.21]}
+    assert spread_text(three, unit="mV") == "0.2 ± 0.01 mV"
+    assert spread_text(three, plus_minus="+-") == "0.2 +- 0.01"
+    same = {"mean": 0.3, "std": 0.0, "by_seed": [0.3, 0.3, 0.3]}
+    assert spread_text(same, deterministic=True) == "0.3 (deterministic)"
+    assert spread_text(same) == "0.3 ± 0"  # three networks' seeds that agreed
+    one = {"mean": 0.4, "std": 0.0, "by_seed": [0.4]}
+    assert spread_text(one, unit="m") == "0.4 m (one seed)"
+    failed = {"mean": 0.5, "std": 0.0, "by_seed": [0.5, None], "n_failed": 1}
+    assert spread_text(failed) == "0.5 (one seed) (1 failed)"
+    assert spread_text({"mean": None, "std": None, "by_seed": [None]}) == "failed"

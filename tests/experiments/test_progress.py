@@ -131,6 +131,34 @@ def test_fit_progress_reports_every_evaluation_against_max_nfev():
     assert len(seen) == len({n for n, _, _ in seen})
 
 
+def test_fit_progress_counts_the_records_of_a_fit_on_whole_records():
+    from skhybrid.domain import StateSpaceModel, fit_progress
+
+    def decay(x, u, *, xp, a):
+        return a * x + u
+
+    rng = np.random.default_rng(0)
+    U = [rng.standard_normal((60, 1)), rng.standard_normal((40, 1))]
+    Y = []
+    for u in U:
+        y = np.zeros((len(u), 1))
+        for t in range(1, len(u)):
+            y[t] = 0.7 * y[t - 1] + u[t - 1]
+        Y.append(y)
+    model = StateSpaceModel(
+        decay,
+        {"a": 0.5},
+        state_names=["y"],
+        observed=["y"],
+        time="discrete",
+        n_init=2,
+    )
+    seen = []
+    with fit_progress(lambda *event: seen.append(event)):
+        model.fit_simulation(U, Y)
+    assert seen and {records for _, _, records in seen} == {2}
+
+
 def test_fit_progress_refuses_a_hook_that_is_not_callable():
     import pytest
 

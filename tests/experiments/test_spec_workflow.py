@@ -235,6 +235,10 @@ def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, caps
     assert main([*argv, "--no-progress", "--n-jobs", "1", "--out", "out"]) == 0
     printed = capsys.readouterr().out
     assert "sealed selection sha256" in printed and "test: " in printed
+    # One seed gives no spread: the figure says so, never "+- 0".
+    test_line = next(line for line in printed.splitlines() if "test: " in line)
+    assert "+-" not in test_line
+    assert "(one seed)" in test_line or "(deterministic)" in test_line
     assert machine.TEST_READS == [True]
     cli = json.loads((tmp_path / "out" / "results.json").read_text())["systems"]
     cli = cli["toy-machine"]

@@ -40,7 +40,7 @@ from scipy.stats import chi2
 from sklearn.base import clone
 
 from skhybrid.experiments import ExperimentSettings
-from skhybrid.experiments._systems import SYSTEMS
+from skhybrid.experiments._registry import SYSTEMS
 from skhybrid.experiments._zoo import model_zoo
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.losses import ljung_box

@@ -306,14 +306,12 @@ def _error(message):
 
 
 def _settings(quick, seed, noise_type=None, system=None):
-    """The run's settings: ExperimentSettings, or a measured system's own."""
+    """The run's settings: the system's own, with ``--noise-type`` where given."""
     from dataclasses import replace
 
-    from skhybrid.experiments import ExperimentSettings
-
-    if system is not None and getattr(system, "measured", False):
-        return system.default_settings(quick, seed)
-    settings = (ExperimentSettings.quick if quick else ExperimentSettings.full)(seed)
+    settings = system.default_settings(quick, seed)
+    if getattr(system, "measured", False):
+        return settings
     return replace(settings, noise_type=noise_type)
 
 
@@ -323,26 +321,24 @@ def _system(name):
     return get_system(name)
 
 
-def _n_models(names, settings_of):
-    """Models in the run of the paper's systems: the zoo of each."""
-    from skhybrid import experiments
-
-    return sum(
-        len(experiments.model_zoo(_system(name), settings_of(name))) for name in names
-    )
+def _n_models(systems, settings_of):
+    """Models in the run of one-step systems: the zoo of each."""
+    return sum(len(system.model_zoo(settings_of(system))) for system in systems)
 
 
-def _identity(names, quick, seed, noise_type=None):
+def _identity(systems, quick, seed, noise_type=None):
     """What makes two runs the same: a resumed run must match it."""
     import skhybrid
 
-    settings = _settings(quick, seed, noise_type, _system(names[0]))
+    settings = _settings(quick, seed, noise_type, systems[0])
     return {
         "skhybrid": skhybrid.__version__,
-        "systems": names,
+        "systems": [system.name for system in systems],
         "quick": quick,
         "seed": seed,
         "settings": settings.to_dict(),
+        # What each spec says (its simulators, physics and protocol by name).
+        "specs": {system.name: system.digest() for system in systems},
     }
 
 
@@ -444,7 +440,7 @@ class _DaskError(Exception):
 
 def _check_run_args(args):
     """One line for arguments that do not fit together, or None."""
-    measured = args.spec is not None or args.system in MEASURED_SYSTEMS
+    measured = args.system in MEASURED_SYSTEMS
     if (args.system is None) == (args.spec is None):
         return "give one system: SYSTEM, or --system MODULE:OBJECT for your own"
     if measured and args.noise_type is not None:
@@ -453,7 +449,7 @@ def _check_run_args(args):
             f"--noise-type sets the simulators' noise; {name} is a measured "
             "system: drop --noise-type"
         )
-    if not measured and args.data is not None:
+    if args.spec is None and not measured and args.data is not None:
         return (
             f"--data names a measured benchmark's files; {args.system} is "
             "simulated: drop --data, or run one of " + ", ".join(MEASURED_SYSTEMS)
@@ -466,11 +462,27 @@ def _check_run_args(args):
         return "give --seeds S [S ...] once (--seed S is the same option)"
     if args.seed is not None:
         args.seeds = [args.seed]
-    if not measured and args.seeds is not None and len(args.seeds) > 1:
+    several = args.seeds is not None and len(args.seeds) > 1
+    if args.spec is None and not measured and several:
         return (
             f"{args.system} is simulated and runs one seed; got --seeds "
             + " ".join(map(str, args.seeds))
             + " (a measured run makes a selection at each of several)"
+        )
+    return None
+
+
+def _check_protocol_args(args, system):
+    """One line for options that a spec's protocol does not take, or None."""
+    if system.measured and args.noise_type is not None:
+        return (
+            f"--noise-type sets the simulators' noise; {system.name} is a "
+            "free-run spec: drop --noise-type"
+        )
+    if not system.measured and args.seeds is not None and len(args.seeds) > 1:
+        return (
+            f"{system.name} is a spec of the one-step protocol and runs one seed; "
+            "got --seeds " + " ".join(map(str, args.seeds))
         )
     return None
 
@@ -529,20 +541,26 @@ def main(argv=None):
 
 
 class _Plan:
-    """What a run fits: the paper's systems, or one measured system at its seeds."""
+    """What a run fits: one-step systems at one seed, or one measured system."""
 
     def __init__(self, args):
         self.args = args
-        self.measured = args.spec is not None or args.system in MEASURED_SYSTEMS
         if args.spec is not None:
-            from skhybrid.experiments._measured_system import MeasuredSystem
+            from skhybrid.experiments._registry import system_of
 
             try:
-                self.system = MeasuredSystem.from_spec(_load_spec(args.spec))
+                systems = [system_of(_load_spec(args.spec))]
             except (TypeError, ValueError) as exc:
                 raise _SpecError(f"--system {args.spec}: {exc}") from None
-        elif self.measured:
-            self.system = _system(args.system)
+        elif args.system == "all":
+            systems = [_system(name) for name in SIMULATED_SYSTEMS]
+        else:
+            systems = [_system(args.system)]
+        self.measured = systems[0].measured
+        if args.spec is not None:
+            problem = _check_protocol_args(args, systems[0])
+            if problem is not None:
+                raise _SpecError(problem)
         if self.measured:
             from skhybrid.experiments._measured import (
                 DEFAULT_SEEDS,
@@ -550,6 +568,7 @@ class _Plan:
                 measured_identity,
             )
 
+            self.system = systems[0]
             seeds = DEFAULT_SEEDS if args.seeds is None else args.seeds
             try:
                 self.seeds = check_seeds(seeds)
@@ -562,14 +581,12 @@ class _Plan:
         else:
             seed = 0 if args.seeds is None else args.seeds[0]
             self.seed = seed
-            names = list(SIMULATED_SYSTEMS) if args.system == "all" else [args.system]
-            self.names = names
-            self.identity = _identity(names, args.quick, seed, args.noise_type)
+            self.systems = systems
+            self.names = [system.name for system in systems]
+            self.identity = _identity(systems, args.quick, seed, args.noise_type)
             self.n_models = _n_models(
-                names,
-                lambda name: _settings(
-                    args.quick, seed, args.noise_type, _system(name)
-                ),
+                systems,
+                lambda system: _settings(args.quick, seed, args.noise_type, system),
             )
 
     def check_files(self):
@@ -608,16 +625,14 @@ class _Plan:
 
         return [
             experiments.run_experiment(
-                name,
-                settings=_settings(
-                    args.quick, self.seed, args.noise_type, _system(name)
-                ),
+                system,
+                settings=_settings(args.quick, self.seed, args.noise_type, system),
                 n_jobs=n_jobs,
                 progress=not args.no_progress,
                 folder=folder,
                 data=args.data,
             )
-            for name in self.names
+            for system in self.systems
         ]
 
 

@@ -42,7 +42,8 @@ from skhybrid.benchmarks import (
 
 __all__ = ["MEASURED", "PUBLISHED", "SIMULATED", "benchmark_spec"]
 
-#: The paper's simulated systems by name, each a module with ``SYSTEM``.
+#: The paper's simulated systems by name, each a module with ``SPEC`` (a spec of
+#: the one-step protocol).
 SIMULATED = {m.NAME: m for m in (pendulum, double_pendulum, dc_motor)}
 
 #: The measured benchmarks by name, each a module with ``make_spec``.

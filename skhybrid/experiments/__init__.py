@@ -12,6 +12,9 @@ emps --data ../shared/data --quick`` (see ``skhybrid --help``), or from Python::
     result = run_experiment("pendulum", quick=True)
     write_report([result], "results")
 
+Every system is a :class:`SystemSpec`. The paper's three are specs of its
+one-step protocol (``protocol=OneStepWindows(...)``: simulators as records and
+tests, the paper's zoo scored one step ahead), run by :func:`run_experiment`.
 A user's own machine is a :class:`SystemSpec` (records, sample period,
 initialisation window, physics, test records) run by :func:`run_system`, or by
 ``skhybrid run --system module:object``: the same candidate family, chosen by
@@ -34,7 +37,7 @@ _LAZY = {
     "SYSTEMS": "_registry",
     "ExperimentResult": "_simulated",
     "ExperimentSettings": "_settings",
-    "System": "_systems",
+    "OneStepWindows": "_protocol",
     "check_claims": "_claims",
     "hybrid_settings": "_spec",
     "model_zoo": "_zoo",
@@ -48,7 +51,7 @@ __all__ = [
     "SYSTEMS",
     "ExperimentResult",
     "ExperimentSettings",
-    "System",
+    "OneStepWindows",
     "SystemSpec",
     "check_claims",
     "hybrid_settings",

@@ -23,6 +23,7 @@ from skhybrid.experiments._measured_zoo import (
     zoo,
 )
 from skhybrid.experiments._pickling import check_picklable
+from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._spec import SystemSpec, records_digest
 from skhybrid.experiments._store import VALIDATION_RUNS
 from skhybrid.model_selection import RecordBlockSplit, take_pieces
@@ -139,6 +140,13 @@ class MeasuredSystem:
         """
         if not isinstance(spec, SystemSpec):
             raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
+        if isinstance(spec.protocol, OneStepWindows):
+            raise ValueError(  # noqa: TRY004 - a value of the right type
+                f"{spec.name!r} is a spec of the one-step protocol "
+                "(protocol=OneStepWindows), whose simulated splits run at one "
+                "seed: run it with run_experiment(spec) or skhybrid run --system "
+                "module:object; run_system runs the free-run protocol."
+            )
         check_picklable(spec)
         return cls(spec)
 

@@ -1,17 +1,23 @@
 """The built-in systems by name, as the pipeline runs them.
 
 The systems themselves are the modules of the catalogue,
-:mod:`skhybrid.benchmarks`; this maps their names to what
-:func:`~skhybrid.experiments.run_experiment` runs.
+:mod:`skhybrid.benchmarks`, each a :class:`~skhybrid.experiments.SystemSpec`;
+this maps their names, and any spec, to what
+:func:`~skhybrid.experiments.run_experiment` runs: a spec of the one-step
+protocol as a :class:`~skhybrid.experiments._one_step.OneStepSystem`, a
+free-run one as a :class:`~skhybrid.experiments._measured_system.MeasuredSystem`.
 """
 
 from skhybrid.benchmarks import MEASURED, SIMULATED
 from skhybrid.experiments._measured_system import MeasuredSystem
+from skhybrid.experiments._one_step import OneStepSystem
+from skhybrid.experiments._protocol import OneStepWindows
+from skhybrid.experiments._spec import SystemSpec
 
-__all__ = ["MEASURED_SYSTEMS", "SYSTEMS", "get_system"]
+__all__ = ["MEASURED_SYSTEMS", "SYSTEMS", "get_system", "system_of"]
 
 #: The paper's simulated systems by name.
-SYSTEMS = {name: module.SYSTEM for name, module in SIMULATED.items()}
+SYSTEMS = {name: OneStepSystem(module.SPEC) for name, module in SIMULATED.items()}
 
 #: The measured benchmarks by name.
 MEASURED_SYSTEMS = {
@@ -19,19 +25,39 @@ MEASURED_SYSTEMS = {
 }
 
 
+def system_of(spec):
+    """The pipeline's system for ``spec``, by its protocol.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        A system of the one-step protocol or of the free-run one.
+
+    Returns
+    -------
+    system : OneStepSystem or MeasuredSystem
+        What :func:`~skhybrid.experiments.run_experiment` runs.
+    """
+    if isinstance(spec.protocol, OneStepWindows):
+        return OneStepSystem(spec)
+    return MeasuredSystem.from_spec(spec)
+
+
 def get_system(system):
     """The system named ``system`` (a paper system or a measured benchmark).
 
     Parameters
     ----------
-    system : str or System or MeasuredSystem
-        A name from ``skhybrid list``, or the system.
+    system : str, SystemSpec, OneStepSystem or MeasuredSystem
+        A name from ``skhybrid list``, a spec, or the system.
 
     Returns
     -------
-    system : System or MeasuredSystem
+    system : OneStepSystem or MeasuredSystem
         The system.
     """
+    if isinstance(system, SystemSpec):
+        return system_of(system)
     if not isinstance(system, str):
         return system
     known = {**SYSTEMS, **MEASURED_SYSTEMS}

@@ -127,11 +127,13 @@ def run_experiment(
 
     Parameters
     ----------
-    system : str, System or MeasuredSystem
-        ``"pendulum"``, ``"double-pendulum"``, ``"dc-motor"`` (see
-        ``skhybrid list``), a measured benchmark: ``"cascaded-tanks"``,
-        ``"emps"``, ``"silverbox"``, or a measured system of a user's spec
-        (``MeasuredSystem.from_spec``).
+    system : str or SystemSpec
+        A built-in system by name: ``"pendulum"``, ``"double-pendulum"``,
+        ``"dc-motor"`` (see ``skhybrid list``), a measured benchmark:
+        ``"cascaded-tanks"``, ``"emps"``, ``"silverbox"``; or a
+        :class:`~skhybrid.experiments.SystemSpec`, of the one-step protocol
+        (:class:`~skhybrid.experiments.OneStepWindows`: simulated and scored
+        here) or of the free-run one (a measured system).
     settings : ExperimentSettings, MeasuredSettings or None, default=None
         Sizes and budgets; ``None`` takes the system's default for ``quick``
         and ``seed``.

@@ -10,15 +10,14 @@ beside the test figures, so a reader can check that the figures come from the
 selection the file records, made before the test was seen.
 """
 
-import functools
 import hashlib
 import json
-import re
 import time
 
 import numpy as np
 
 from skhybrid.exceptions import RefusedTestRecordsError
+from skhybrid.experiments._describe import canonical, describe
 from skhybrid.experiments._measured_report import (
     hull_exit,
     measured_figure,
@@ -78,10 +77,10 @@ def _model_fields(spec):
     return {
         "name": spec.name,
         "n_init": spec.n_init,
-        "physics": _describe(spec.physics),
-        "physics_inputs": _describe(spec.physics_inputs),
-        "segments": _describe(spec.segments),
-        "hybrids": _describe(spec.hybrids),
+        "physics": describe(spec.physics),
+        "physics_inputs": describe(spec.physics_inputs),
+        "segments": describe(spec.segments),
+        "hybrids": describe(spec.hybrids),
         "hybrid_records": spec.hybrid_records,
         "notes": spec.notes,
     }
@@ -107,54 +106,9 @@ def spec_digest(spec):
     fields = {
         **_model_fields(spec),
         "dt": spec.dt,
-        "physics_starts": _describe(spec.physics_starts),
+        "physics_starts": describe(spec.physics_starts),
     }
-    return hashlib.sha256(_canonical(fields).encode()).hexdigest()
-
-
-def _qualified_name(obj):
-    """``module.qualname`` of a function or class: the same in every session."""
-    module = getattr(obj, "__module__", None) or type(obj).__module__
-    name = getattr(obj, "__qualname__", None) or getattr(obj, "__name__", None)
-    return f"{module}.{name or type(obj).__qualname__}"
-
-
-def _describe(value):
-    """``value`` as JSON-ready data that does not depend on the session.
-
-    Estimators by class and parameters, callables by ``module.qualname``; never
-    a ``repr`` holding a memory address, so the seal's hash repeats in a fresh
-    process and after a resume.
-    """
-    if hasattr(value, "get_params") and not isinstance(value, type):
-        params = value.get_params(deep=False)
-        return {
-            "class": _qualified_name(type(value)),
-            "params": {k: _describe(v) for k, v in sorted(params.items())},
-        }
-    if isinstance(value, dict):
-        return {str(k): _describe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_describe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _describe(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    if isinstance(value, functools.partial):
-        return {
-            "partial": _describe(value.func),
-            "args": _describe(list(value.args)),
-            "keywords": _describe(value.keywords),
-        }
-    if callable(value):
-        return _qualified_name(value)
-    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(value))
-
-
-def _canonical(value):
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(canonical(fields).encode()).hexdigest()
 
 
 def seal(results, folder_path):
@@ -179,7 +133,7 @@ def seal(results, folder_path):
         # The code and CPU kernels the selection was made with.
         "provenance": provenance(),
     }
-    digest = hashlib.sha256(_canonical(selection).encode()).hexdigest()
+    digest = hashlib.sha256(canonical(selection).encode()).hexdigest()
     sealed = {"sha256": digest, "selection": selection}
     if folder_path is not None:
         text = json.dumps(

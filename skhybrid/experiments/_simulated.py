@@ -4,7 +4,8 @@ The paper's systems (section 6) are simulated: each model is fitted on the
 training split's windows and predicts one step ahead on every test split and on
 the validation split (:class:`ExperimentResult`). The pipeline,
 :func:`~skhybrid.experiments.run_experiment`, calls the system's hooks
-(:class:`~skhybrid.experiments.System`); this module holds what they build.
+(:class:`~skhybrid.experiments._one_step.OneStepSystem`); this module holds
+what they build.
 """
 
 import time
@@ -27,8 +28,8 @@ class ExperimentResult:
 
     Parameters
     ----------
-    system : System
-        The system.
+    system : OneStepSystem
+        The system (a spec of the one-step protocol).
     settings : ExperimentSettings
         Sizes, architectures and seed.
     splits : dict of str to Bunch
@@ -36,8 +37,8 @@ class ExperimentResult:
 
     Attributes
     ----------
-    system : System
-        The system.
+    system : OneStepSystem
+        The system (a spec of the one-step protocol).
     settings : ExperimentSettings
         Sizes, architectures and seed.
     splits : dict of str to Bunch

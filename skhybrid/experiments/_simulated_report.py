@@ -44,7 +44,8 @@ def _figures(result, out_dir):
         disp.figure_.savefig(path, dpi=90)
         figures.append((f"RMSE in dB over windows, {split}", path))
 
-    split = "interpolation"
+    # The residual ACFs on the first test set (the paper's interpolation set).
+    split = result.test_splits[0]
     physics = result.system.hybrid_physics
     for model in ACF_MODELS:
         model = physics if model == "physics" else model

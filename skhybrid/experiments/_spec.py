@@ -12,12 +12,13 @@ import difflib
 import inspect
 import numbers
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
+from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
 
 __all__ = ["SystemSpec", "as_records", "records_digest"]
@@ -267,6 +268,93 @@ def _check_hybrids(hybrids):
             )
 
 
+def _refuse_one_step(spec, method):
+    if isinstance(spec.protocol, OneStepWindows):
+        raise ValueError(  # noqa: TRY004 - the spec's protocol, not a type error
+            f"{method} reads a free-run spec's records; {spec.name!r} has "
+            "protocol=OneStepWindows, whose records and tests are simulators "
+            "that its run calls at each seed."
+        )
+
+
+#: What only the free-run protocol reads (a one-step spec leaves them unset).
+_FREE_RUN_ONLY = (
+    "dt",
+    "inputs",
+    "outputs",
+    "physics_inputs",
+    "segments",
+    "hybrids",
+    "hybrid_records",
+    "physics_starts",
+    "starts_nfev",
+    "score_from_estimation_start",
+)
+
+
+def _is_regressor(obj):
+    return (
+        hasattr(obj, "get_params") and hasattr(obj, "fit") and hasattr(obj, "predict")
+    )
+
+
+def _check_one_step(spec):
+    """Raise unless ``spec`` states a system of the one-step protocol."""
+    defaults = {f.name: f.default for f in fields(spec)}
+    set_ = [key for key in _FREE_RUN_ONLY if getattr(spec, key) != defaults[key]]
+    if set_:
+        raise ValueError(
+            f"{', '.join(set_)} belong to the free-run protocol; a spec with "
+            "protocol=OneStepWindows simulates windows and reads none of them: "
+            "leave them unset."
+        )
+    if not callable(spec.records):
+        raise TypeError(
+            "records must be a simulator records(n_samples, *, random_state, "
+            "n_steps, noise, noise_type) under protocol=OneStepWindows; got "
+            f"{type(spec.records).__name__}."
+        )
+    tests = spec.tests
+    if (
+        not isinstance(tests, dict)
+        or not tests
+        or not all(isinstance(k, str) and callable(v) for k, v in tests.items())
+    ):
+        raise TypeError(
+            "tests must be a non-empty dict of test set name to simulator under "
+            f"protocol=OneStepWindows; got tests={tests!r}."
+        )
+    if "train" in tests:
+        raise ValueError("tests must not name a test set 'train' (the records').")
+    physics, proto = spec.physics, spec.protocol
+    if isinstance(physics, dict):
+        if not physics or not all(
+            isinstance(k, str) and _is_regressor(v) for k, v in physics.items()
+        ):
+            raise TypeError(
+                "physics must be a regressor on windows, or a non-empty dict of "
+                f"label to regressor; got physics={physics!r}."
+            )
+        for key in ("hybrid_physics", "ensemble_physics"):
+            label = getattr(proto, key)
+            if label is None and len(physics) > 1:
+                raise ValueError(
+                    f"protocol.{key} must name one of the physics "
+                    f"{sorted(physics)}: the spec has several."
+                )
+            if label is not None and label not in physics:
+                raise ValueError(
+                    f"protocol.{key}={label!r} is not a label of the physics "
+                    f"{sorted(physics)}."
+                )
+    elif not _is_regressor(physics):
+        raise TypeError(
+            "physics must be a regressor on windows (fit and predict, a "
+            "ParametricModel say) under protocol=OneStepWindows; got "
+            f"{type(physics).__name__}."
+        )
+
+
 def _check_takes_starts(physics):
     """Raise unless ``physics`` takes ``physics_starts``: its own ``starts``, unset."""
     if "starts" not in physics.get_params(deep=False):
@@ -283,7 +371,7 @@ def _check_takes_starts(physics):
 
 @dataclass
 class SystemSpec:
-    """A measured system, described once: records, sample period, physics, tests.
+    """A system, described once: records, sample period, physics, tests.
 
     :func:`~skhybrid.experiments.run_system` (or ``skhybrid run --system
     module:object``) fits the default candidate family on it: the physics by
@@ -379,6 +467,17 @@ class SystemSpec:
         (the physics, its static corrections and the state-space hybrid, whose
         corrected run starts from the physics' state); the others score NaN
         there.
+    protocol : "free-run" or OneStepWindows, default="free-run"
+        How the system's models are judged. ``"free-run"``: the records are
+        measured (or simulated once), every model simulates each held-out block
+        and test record freely from its first ``n_init`` outputs, as above. A
+        :class:`~skhybrid.experiments.OneStepWindows`: the paper's protocol for
+        a simulated system (section 6); ``records`` and ``tests`` are then
+        simulators of windows of ``n_init`` time steps, ``physics`` a regressor
+        on them (or a dict of them by label), the paper's model zoo is fitted
+        and each model's one-step prediction scored on every test set; the
+        fields above that only the free run reads stay unset. The built-in
+        pendulum, double pendulum and DC motor are specs of this protocol.
 
     Examples
     --------
@@ -423,6 +522,7 @@ class SystemSpec:
     physics_starts: list = None
     starts_nfev: int = 15
     score_from_estimation_start: bool = False
+    protocol: object = "free-run"
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name.strip():
@@ -458,6 +558,14 @@ class SystemSpec:
                     f"{key}={columns!r}."
                 )
         _check_published(self.published)
+        if isinstance(self.protocol, OneStepWindows):
+            _check_one_step(self)
+            return
+        if not (isinstance(self.protocol, str) and self.protocol == "free-run"):
+            raise TypeError(
+                "protocol must be 'free-run' or a OneStepWindows (the paper's "
+                f"one-step protocol); got protocol={self.protocol!r}."
+            )
         if self.physics_inputs is not None and not callable(self.physics_inputs):
             raise TypeError(
                 "physics_inputs must be a callable mapping a record's inputs to the "
@@ -576,6 +684,7 @@ class SystemSpec:
             tail, no sample period (``dt``), or a test record given as data
             that does not fit them (:meth:`test_records`).
         """
+        _refuse_one_step(self, "estimation_records")
         records = self.records() if callable(self.records) else self.records
         U, Y, dts = as_records(
             records, inputs=self.inputs, outputs=self.outputs, name="records"
@@ -660,6 +769,7 @@ class SystemSpec:
             ``n_init`` samples, or whose columns differ from the estimation
             records'; the message names it.
         """
+        _refuse_one_step(self, "test_records")
         tests = self.tests() if callable(self.tests) else self.tests
         if tests is None:
             return {}

@@ -24,7 +24,7 @@ def model_zoo(system, settings):
 
     Parameters
     ----------
-    system : skhybrid.experiments.System
+    system : OneStepSystem
         The system (gives its physics models).
     settings : ExperimentSettings
         Sizes, architectures and seed.

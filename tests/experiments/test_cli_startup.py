@@ -82,8 +82,7 @@ def test_claims_are_judged_on_full_settings_only(monkeypatch):
     def one_claim(result):
         return [{"claim": "c", "passed": False, "detail": "x = 2"}]
 
-    monkeypatch.setitem(_claims._CHECKS, "pendulum", one_claim)
-    system = SimpleNamespace(name="pendulum")
+    system = SimpleNamespace(name="pendulum", claims=one_claim)
     full = SimpleNamespace(system=system, settings=ExperimentSettings.full())
     quick = SimpleNamespace(system=system, settings=ExperimentSettings.quick())
     assert _claims.check_claims(full)[0]["passed"] is False

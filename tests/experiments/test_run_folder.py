@@ -20,7 +20,7 @@ import pytest
 
 from skhybrid import experiments
 from skhybrid.cli import main
-from skhybrid.experiments import _simulated_report, _systems
+from skhybrid.experiments import _one_step, _simulated_report
 from skhybrid.experiments._fitting import interrupts_raise
 from skhybrid.experiments._store import FolderLock, RunFolder, RunFolderError
 from skhybrid.hybrid import HybridBoostingRegressor
@@ -61,7 +61,7 @@ def tiny_zoo(monkeypatch, ctrl_c_at_epoch):
     def use(interrupt_dense=False):
         zoo = _tiny_zoo(interrupt_dense, ctrl_c_at_epoch)
         monkeypatch.setattr(experiments, "model_zoo", zoo)
-        monkeypatch.setattr(_systems, "model_zoo", zoo)
+        monkeypatch.setattr(_one_step, "model_zoo", zoo)
 
     # The paper's claims compare models that the small zoo does not have.
     monkeypatch.setattr(experiments, "check_claims", lambda result: [])
@@ -77,7 +77,7 @@ def no_training(monkeypatch):
         raise AssertionError("training started")
 
     monkeypatch.setattr(experiments, "run_experiment", fail)
-    monkeypatch.setattr(_systems, "fit_one", fail)
+    monkeypatch.setattr(_one_step, "fit_one", fail)
 
 
 def _run(out, *extra):
@@ -258,10 +258,10 @@ def test_finished_run_is_not_overwritten_without_overwrite(
         _one_error_line(capsys, "already holds a finished run", "--overwrite")
     assert (out / "results.csv").read_bytes() == before
     # --resume writes the report again from the stored models, training nothing.
-    fit_one = _systems.fit_one
-    monkeypatch.setattr(_systems, "fit_one", None)  # calling it would fail
+    fit_one = _one_step.fit_one
+    monkeypatch.setattr(_one_step, "fit_one", None)  # calling it would fail
     assert _run(out, "--resume") == 0
-    monkeypatch.setattr(_systems, "fit_one", fit_one)
+    monkeypatch.setattr(_one_step, "fit_one", fit_one)
     assert "resuming: 4 of 4" in capsys.readouterr().out
     assert _table(out) == table
     assert _run(out, "--overwrite", "--seed", "1") == 0
@@ -454,7 +454,7 @@ def test_ctrl_c_while_the_models_are_counted_exits_130_and_unlocks(
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(experiments, "model_zoo", interrupted)
+    monkeypatch.setattr(_one_step.OneStepSystem, "model_zoo", interrupted)
     out = tmp_path / "run"
     argv = ["run", "pendulum", "--quick", "--no-progress", "--out", str(out)]
     assert main(argv) == 130

@@ -212,7 +212,8 @@ def test_a_physics_defined_in_main_loads_in_a_new_session_and_the_seal_repeats(
 
 
 def test_the_seal_names_callables_by_module_and_qualname():
-    from skhybrid.experiments._sealed import _canonical, describe_spec
+    from skhybrid.experiments._describe import canonical as _canonical
+    from skhybrid.experiments._sealed import describe_spec
 
     spec = make_spec(physics_inputs=np.negative)
     U, Y = spec.estimation_records()

@@ -1,50 +1,101 @@
-"""What a simulated system of the paper is: its splits and the physics fitted to each.
+"""A system of the paper's one-step protocol in the pipeline.
 
-The systems themselves are modules of the catalogue, :mod:`skhybrid.benchmarks`.
-A system also answers the pipeline's hooks
-(:func:`~skhybrid.experiments.run_experiment` calls the same ones on a measured
-system): its default settings, a new result, its model zoo, the joblib call
-that fits one model, and the most epochs its networks can train.
+A :class:`~skhybrid.experiments.SystemSpec` whose ``protocol`` is a
+:class:`~skhybrid.experiments.OneStepWindows` (the built-in pendulum, double
+pendulum and DC motor of :mod:`skhybrid.benchmarks`, or a user's) runs as a
+:class:`OneStepSystem`: its simulators give the splits at each seed, its physics
+the zoo's physics models. It answers the pipeline's hooks
+(:func:`~skhybrid.experiments.run_experiment` calls the same ones on a
+free-run system): its default settings, a new result, its model zoo, the joblib
+call that fits one model, and the most epochs its networks can train.
 """
 
+import hashlib
+from dataclasses import fields as dataclass_fields
 from dataclasses import replace
 
 import numpy as np
 from joblib import delayed
+from sklearn.base import clone
 
+from skhybrid.experiments._describe import canonical, describe
 from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT
 from skhybrid.experiments._progress import attach_epoch_logger, epoch_budget
+from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._settings import ExperimentSettings
 from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shares
+from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments._zoo import model_zoo
 
-__all__ = ["System"]
+__all__ = ["OneStepSystem"]
 
-#: Offset of the validation episodes' seed from the run's (the test splits of
-#: the catalogue's systems use 1000 and 2000).
+#: Offset of the validation episodes' seed from the run's (the test splits use
+#: 1000, 2000, ... in the spec's order).
 VALIDATION_SEED = 3000
+#: Offset of the k-th test split's seed from the run's (k = 1, 2, ...).
+TEST_SEED_STEP = 1000
 
 
-class System:
-    """A benchmark system: how to simulate its splits and which physics to fit.
+class OneStepSystem:
+    """A spec of the one-step protocol, as the pipeline runs it.
 
-    Subclasses set ``name``, ``title`` and ``section`` and implement
-    :meth:`make_splits` and :meth:`physics`.
+    Parameters
+    ----------
+    spec : SystemSpec
+        With ``protocol=OneStepWindows(...)``.
     """
 
-    #: Simulated splits; a measured benchmark (``MeasuredSystem``) sets True.
+    #: Simulated splits, not measured records.
     measured = False
-    name = ""
-    title = ""
-    section = ""
-    #: Label (in :meth:`physics`) of the physics used as first stage of hybrids.
-    hybrid_physics = "physics"
-    #: Label of the physics warm-started and trained jointly in the ensemble.
-    ensemble_physics = "physics"
-    #: Where the simulator's noise enters unless the settings say otherwise.
-    default_noise_type = "measurement"
-    #: Standard deviation of the simulator's noise on every observed state.
-    noise = 0.01
+
+    def __init__(self, spec):
+        if not isinstance(spec, SystemSpec) or not isinstance(
+            spec.protocol, OneStepWindows
+        ):
+            raise TypeError(
+                f"spec must be a SystemSpec with protocol=OneStepWindows; got {spec!r}."
+            )
+        self.spec = spec
+        protocol = spec.protocol
+        self.name = spec.name
+        self.title = spec.title or spec.name
+        self.section = protocol.section
+        self.default_noise_type = protocol.noise_type
+        self.noise = protocol.noise
+        labels = list(spec.physics) if isinstance(spec.physics, dict) else ["physics"]
+        #: Label (in :meth:`physics`) of the physics used as first stage of hybrids.
+        self.hybrid_physics = protocol.hybrid_physics or labels[0]
+        #: Label of the physics warm-started and trained jointly in the ensemble.
+        self.ensemble_physics = protocol.ensemble_physics or labels[0]
+
+    def __repr__(self):
+        return f"OneStepSystem({self.name!r})"
+
+    def digest(self):
+        """SHA-256 of what the spec says: simulators, physics, window, protocol.
+
+        Functions are named by their module and qualified name and estimators
+        by class and parameters, never by memory address: the same spec gives
+        the same digest in every session (a resumed run must match it).
+
+        Returns
+        -------
+        digest : str
+            Hex digest.
+        """
+        spec, protocol = self.spec, self.spec.protocol
+        fields = {
+            "name": spec.name,
+            "records": describe(spec.records),
+            "tests": describe(spec.tests),
+            "physics": describe(spec.physics),
+            "n_init": spec.n_init,
+            "protocol": {
+                f.name: describe(getattr(protocol, f.name))
+                for f in dataclass_fields(protocol)
+            },
+        }
+        return hashlib.sha256(canonical(fields).encode()).hexdigest()
 
     def noise_type(self, settings):
         """Where the noise enters in a run with ``settings``.
@@ -98,12 +149,22 @@ class System:
         Returns
         -------
         splits : dict of str to Bunch
-            ``{"train": Bunch, "interpolation": Bunch, ...}``.
+            ``{"train": Bunch, <test set>: Bunch, ...}``: the spec's ``records``
+            at the run's seed, its ``tests`` at seeds 1000, 2000, ... away.
         """
-        raise NotImplementedError
+        common = self._common(settings)
+        splits = {
+            "train": self.spec.records(
+                settings.n_train, random_state=settings.seed, **common
+            )
+        }
+        for k, (name, simulate) in enumerate(self.spec.tests.items(), start=1):
+            seed = self.split_seed(settings, TEST_SEED_STEP * k)
+            splits[name] = simulate(settings.n_test, random_state=seed, **common)
+        return splits
 
     def physics(self, settings):
-        """The system's physics models, unfitted.
+        """The system's physics models, unfitted, on the run's windows.
 
         Parameters
         ----------
@@ -112,10 +173,35 @@ class System:
 
         Returns
         -------
-        physics : dict of str to DomainModel
-            ``{label: unfitted domain model}``.
+        physics : dict of str to estimator
+            ``{label: unfitted regressor}`` (``"physics"`` for one model).
         """
-        raise NotImplementedError
+        physics = self.spec.physics
+        if not isinstance(physics, dict):
+            physics = {"physics": physics}
+        out = {}
+        for label, model in physics.items():
+            model = clone(model)
+            if "n_steps" in model.get_params(deep=False):
+                model.set_params(n_steps=settings.n_steps)
+            out[label] = model
+        return out
+
+    def claims(self, result):
+        """The paper's claims checked on a finished run (the spec's, or none).
+
+        Parameters
+        ----------
+        result : ExperimentResult
+            A finished run of this system.
+
+        Returns
+        -------
+        claims : list of dict
+            ``{"claim", "passed", "detail"}`` each.
+        """
+        check = self.spec.protocol.claims
+        return [] if check is None else list(check(result))
 
     def validation_split(self, settings):
         """New episodes like the training split's, which no fit reads.
@@ -147,7 +233,7 @@ class System:
         descriptions : dict of str to str
             ``{split: description}``.
         """
-        return {}
+        return dict(self.spec.protocol.descriptions)
 
     # -- the pipeline's hooks ---------------------------------------------------
     def default_settings(self, quick=False, seed=0):
@@ -163,10 +249,11 @@ class System:
         Returns
         -------
         settings : ExperimentSettings
-            Sizes, architectures and seed.
+            Sizes, architectures and seed; windows of the spec's ``n_init``
+            time steps.
         """
         make = ExperimentSettings.quick if quick else ExperimentSettings.full
-        return make(seed)
+        return replace(make(seed), n_steps=self.spec.n_init)
 
     def new_result(self, settings, data=None, searched=None):
         """Simulate the splits and return an :class:`ExperimentResult` without models.

@@ -1,0 +1,204 @@
+"""A system of the paper's one-step protocol is a SystemSpec like any other.
+
+The built-in pendulum, double pendulum and DC motor are specs with
+``protocol=OneStepWindows(...)``; a user's simulator is written the same way and
+runs through the same zoo, report and command line.
+"""
+
+import json
+import subprocess
+import sys
+from dataclasses import replace
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from skhybrid.benchmarks import SIMULATED
+from skhybrid.cli import main
+from skhybrid.datasets import make_dc_motor
+from skhybrid.domain import ParametricModel, dc_motor_step
+from skhybrid.experiments import (
+    ExperimentSettings,
+    OneStepWindows,
+    SystemSpec,
+    check_claims,
+    run_experiment,
+    run_system,
+)
+from skhybrid.experiments._registry import SYSTEMS, get_system
+
+
+def _motor(**kwargs):
+    """The guide's spec (docs/experiments.md): a DC motor of one's own."""
+    fields = {
+        "records": partial(make_dc_motor, excitation_hz=10.0),
+        "tests": {"fast": partial(make_dc_motor, excitation_hz=100.0)},
+        "physics": ParametricModel(
+            partial(dc_motor_step, dt=0.001), {"gain": 1.0, "time_constant": 0.05}
+        ),
+        "n_init": 4,
+        "protocol": OneStepWindows(descriptions={"train": "10 Hz", "fast": "100 Hz"}),
+    }
+    fields.update(kwargs)
+    return SystemSpec("my-motor", **fields)
+
+
+#: Small enough for the default suite: every model of the zoo, a few epochs.
+TINY = replace(
+    ExperimentSettings.quick(), n_train=300, n_test=200, max_epochs=2, window=50
+)
+
+
+def test_the_papers_systems_are_specs_of_the_one_step_protocol():
+    for name, module in SIMULATED.items():
+        spec = module.SPEC
+        assert isinstance(spec, SystemSpec) and spec.name == name
+        assert isinstance(spec.protocol, OneStepWindows)
+        assert SYSTEMS[name].spec is spec
+    pendulum = SYSTEMS["pendulum"]
+    assert pendulum.hybrid_physics == "physics (frozen)"
+    assert pendulum.ensemble_physics == "physics (refit)"
+    settings = pendulum.default_settings(quick=True, seed=3)
+    splits = pendulum.make_splits(settings)
+    assert list(splits) == ["train", "interpolation", "extrapolation"]
+    # The test sets are simulated 1000 and 2000 seeds away from the run's: the
+    # extrapolative one with larger torques.
+    torque = splits["extrapolation"].feature_names.index("torque[t]")
+    assert np.abs(splits["extrapolation"].X[:, torque]).max() > 1.0
+    assert np.abs(splits["train"].X[:, torque]).max() <= 1.0
+    assert SYSTEMS["double-pendulum"].noise_type(settings) == "process"
+
+
+def test_a_users_simulator_runs_the_zoo_and_is_scored_on_its_test_sets():
+    spec = _motor()
+    result = run_experiment(spec, settings=TINY)
+    assert result.system.name == "my-motor"
+    assert result.test_splits == ["fast"]
+    models = set(result.predictions["fast"]) - {"oracle"}
+    assert {"physics", "linear", "dense", "physics+dense", "ensemble"} <= models
+    # Scored against the oracle on its own test set; the physics' parameters
+    # fitted, with standard errors.
+    assert all(np.isfinite(row["rmse"]) for row in result.model_rows("fast", "dense"))
+    assert set(result.params["physics"]) == {"gain", "time_constant"}
+    assert check_claims(result) == []  # the spec states no claim
+
+
+def test_a_one_step_specs_claims_reach_the_report(tmp_path):
+    def claims(result):
+        return [{"claim": "the physics is fitted", "passed": True, "detail": "ok"}]
+
+    spec = _motor(protocol=OneStepWindows(claims=claims))
+    result = run_experiment(spec, settings=TINY)
+    # On settings other than the full run's, a claim is not judged.
+    (claim,) = check_claims(result)
+    assert claim["passed"] is None and claim["detail"].endswith("ok")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"records": [(np.zeros(50), np.zeros(50))]}, TypeError, "records must be a"),
+        ({"tests": None}, TypeError, "tests must be a non-empty dict"),
+        ({"tests": {"train": make_dc_motor}}, ValueError, "'train'"),
+        ({"physics": object()}, TypeError, "physics must be a regressor"),
+        ({"segments": (100,)}, ValueError, "segments belong to the free-run"),
+        ({"dt": 0.1}, ValueError, "dt belong to the free-run"),
+        ({"protocol": "one-step"}, TypeError, "protocol must be 'free-run' or"),
+        (
+            {
+                "physics": {
+                    "a": ParametricModel(dc_motor_step, {"gain": 1.0}),
+                    "b": ParametricModel(dc_motor_step, {"gain": 2.0}),
+                }
+            },
+            ValueError,
+            "protocol.hybrid_physics must name one of",
+        ),
+    ],
+)
+def test_a_one_step_spec_is_checked_when_built(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        _motor(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"noise": -1.0}, "noise must be a finite number"),
+        ({"noise_type": "both"}, "noise_type must be one of"),
+        ({"claims": "yes"}, "claims must be a callable"),
+        ({"descriptions": ["train"]}, "descriptions must be a dict"),
+        ({"hybrid_physics": 3}, "hybrid_physics must be a label"),
+    ],
+)
+def test_the_protocol_names_the_parameter_it_refuses(kwargs, match):
+    with pytest.raises((TypeError, ValueError), match=match):
+        OneStepWindows(**kwargs)
+
+
+def test_a_one_step_spec_has_no_records_to_read_and_run_system_says_so(tmp_path):
+    spec = _motor()
+    with pytest.raises(ValueError, match="protocol=OneStepWindows"):
+        spec.estimation_records()
+    with pytest.raises(ValueError, match="run_experiment"):
+        run_system(spec, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_get_system_takes_a_spec_of_either_protocol():
+    assert get_system(_motor()).name == "my-motor"
+    assert get_system(SIMULATED["pendulum"].SPEC).measured is False
+
+
+def test_a_one_step_specs_digest_is_the_same_in_a_fresh_process():
+    code = (
+        "from skhybrid.experiments._registry import SYSTEMS;"
+        "print(SYSTEMS['pendulum'].digest())"
+    )
+    digests = {
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        for _ in range(2)
+    }
+    assert digests == {SYSTEMS["pendulum"].digest()}
+    changed = replace(SIMULATED["pendulum"].SPEC, n_init=5)
+    assert get_system(changed).digest() != SYSTEMS["pendulum"].digest()
+
+
+def test_the_command_line_runs_a_users_one_step_spec(tmp_path, monkeypatch, capsys):
+    module = tmp_path / "my_motor.py"
+    module.write_text(
+        "from functools import partial\n"
+        "from skhybrid.datasets import make_dc_motor\n"
+        "from skhybrid.domain import ParametricModel, dc_motor_step\n"
+        "from skhybrid.experiments import OneStepWindows, SystemSpec\n"
+        "spec = SystemSpec(\n"
+        "    'my-motor',\n"
+        "    records=partial(make_dc_motor, excitation_hz=10.0),\n"
+        "    tests={'fast': partial(make_dc_motor, excitation_hz=100.0)},\n"
+        "    physics=ParametricModel(\n"
+        "        partial(dc_motor_step, dt=0.001),\n"
+        "        {'gain': 1.0, 'time_constant': 0.05},\n"
+        "    ),\n"
+        "    n_init=4,\n"
+        "    protocol=OneStepWindows(),\n"
+        ")\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    # Tiny settings: the zoo's every model, in seconds.
+    monkeypatch.setattr(
+        ExperimentSettings,
+        "quick",
+        classmethod(lambda cls, seed=0: replace(TINY, seed=seed)),
+    )
+    argv = ["run", "--system", "my_motor:spec", "--quick", "--no-progress"]
+    assert main([*argv, "--seeds", "0", "1", "--out", "x"]) == 2
+    assert "runs one seed" in capsys.readouterr().err
+    assert main([*argv, "--noise-type", "process", "--out", "out"]) == 0
+    results = json.loads(Path("out/results.json").read_text())
+    assert list(results["systems"]) == ["my-motor"]
+    assert (Path("out") / "report.html").is_file()

@@ -9,9 +9,9 @@ noise-free oracle's.
 """
 
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
-__all__ = ["NOISE_TYPES", "OneStepWindows"]
+__all__ = ["NOISE_TYPES", "OneStepWindows", "check_one_step_spec", "refuse_one_step"]
 
 #: Where a simulator's noise enters.
 NOISE_TYPES = ("measurement", "process")
@@ -119,3 +119,91 @@ class OneStepWindows:
                 "claims must be a callable claims(result) or None; got "
                 f"claims={self.claims!r}."
             )
+
+
+def refuse_one_step(spec, method):
+    """Raise where ``spec`` is of the one-step protocol: it has no records to read."""
+    if isinstance(spec.protocol, OneStepWindows):
+        raise ValueError(  # noqa: TRY004 - the spec's protocol, not a type error
+            f"{method} reads a free-run spec's records; {spec.name!r} has "
+            "protocol=OneStepWindows, whose records and tests are simulators "
+            "that its run calls at each seed."
+        )
+
+
+#: What only the free-run protocol reads (a one-step spec leaves them unset).
+_FREE_RUN_ONLY = (
+    "dt",
+    "inputs",
+    "outputs",
+    "physics_inputs",
+    "segments",
+    "hybrids",
+    "hybrid_records",
+    "physics_starts",
+    "starts_nfev",
+    "score_from_estimation_start",
+)
+
+
+def _is_regressor(obj):
+    return (
+        hasattr(obj, "get_params") and hasattr(obj, "fit") and hasattr(obj, "predict")
+    )
+
+
+def check_one_step_spec(spec):
+    """Raise unless ``spec`` (a SystemSpec) states a system of the one-step protocol."""
+    defaults = {f.name: f.default for f in fields(spec)}
+    set_ = [key for key in _FREE_RUN_ONLY if getattr(spec, key) != defaults[key]]
+    if set_:
+        raise ValueError(
+            f"{', '.join(set_)} belong to the free-run protocol; a spec with "
+            "protocol=OneStepWindows simulates windows and reads none of them: "
+            "leave them unset."
+        )
+    if not callable(spec.records):
+        raise TypeError(
+            "records must be a simulator records(n_samples, *, random_state, "
+            "n_steps, noise, noise_type) under protocol=OneStepWindows; got "
+            f"{type(spec.records).__name__}."
+        )
+    tests = spec.tests
+    if (
+        not isinstance(tests, dict)
+        or not tests
+        or not all(isinstance(k, str) and callable(v) for k, v in tests.items())
+    ):
+        raise TypeError(
+            "tests must be a non-empty dict of test set name to simulator under "
+            f"protocol=OneStepWindows; got tests={tests!r}."
+        )
+    if "train" in tests:
+        raise ValueError("tests must not name a test set 'train' (the records').")
+    physics, proto = spec.physics, spec.protocol
+    if isinstance(physics, dict):
+        if not physics or not all(
+            isinstance(k, str) and _is_regressor(v) for k, v in physics.items()
+        ):
+            raise TypeError(
+                "physics must be a regressor on windows, or a non-empty dict of "
+                f"label to regressor; got physics={physics!r}."
+            )
+        for key in ("hybrid_physics", "ensemble_physics"):
+            label = getattr(proto, key)
+            if label is None and len(physics) > 1:
+                raise ValueError(
+                    f"protocol.{key} must name one of the physics "
+                    f"{sorted(physics)}: the spec has several."
+                )
+            if label is not None and label not in physics:
+                raise ValueError(
+                    f"protocol.{key}={label!r} is not a label of the physics "
+                    f"{sorted(physics)}."
+                )
+    elif not _is_regressor(physics):
+        raise TypeError(
+            "physics must be a regressor on windows (fit and predict, a "
+            "ParametricModel say) under protocol=OneStepWindows; got "
+            f"{type(physics).__name__}."
+        )

@@ -12,13 +12,17 @@ import difflib
 import inspect
 import numbers
 from collections.abc import Iterable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments._protocol import OneStepWindows
+from skhybrid.experiments._protocol import (
+    OneStepWindows,
+    check_one_step_spec,
+    refuse_one_step,
+)
 from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
 
 __all__ = ["SystemSpec", "as_records", "records_digest"]
@@ -268,93 +272,6 @@ def _check_hybrids(hybrids):
             )
 
 
-def _refuse_one_step(spec, method):
-    if isinstance(spec.protocol, OneStepWindows):
-        raise ValueError(  # noqa: TRY004 - the spec's protocol, not a type error
-            f"{method} reads a free-run spec's records; {spec.name!r} has "
-            "protocol=OneStepWindows, whose records and tests are simulators "
-            "that its run calls at each seed."
-        )
-
-
-#: What only the free-run protocol reads (a one-step spec leaves them unset).
-_FREE_RUN_ONLY = (
-    "dt",
-    "inputs",
-    "outputs",
-    "physics_inputs",
-    "segments",
-    "hybrids",
-    "hybrid_records",
-    "physics_starts",
-    "starts_nfev",
-    "score_from_estimation_start",
-)
-
-
-def _is_regressor(obj):
-    return (
-        hasattr(obj, "get_params") and hasattr(obj, "fit") and hasattr(obj, "predict")
-    )
-
-
-def _check_one_step(spec):
-    """Raise unless ``spec`` states a system of the one-step protocol."""
-    defaults = {f.name: f.default for f in fields(spec)}
-    set_ = [key for key in _FREE_RUN_ONLY if getattr(spec, key) != defaults[key]]
-    if set_:
-        raise ValueError(
-            f"{', '.join(set_)} belong to the free-run protocol; a spec with "
-            "protocol=OneStepWindows simulates windows and reads none of them: "
-            "leave them unset."
-        )
-    if not callable(spec.records):
-        raise TypeError(
-            "records must be a simulator records(n_samples, *, random_state, "
-            "n_steps, noise, noise_type) under protocol=OneStepWindows; got "
-            f"{type(spec.records).__name__}."
-        )
-    tests = spec.tests
-    if (
-        not isinstance(tests, dict)
-        or not tests
-        or not all(isinstance(k, str) and callable(v) for k, v in tests.items())
-    ):
-        raise TypeError(
-            "tests must be a non-empty dict of test set name to simulator under "
-            f"protocol=OneStepWindows; got tests={tests!r}."
-        )
-    if "train" in tests:
-        raise ValueError("tests must not name a test set 'train' (the records').")
-    physics, proto = spec.physics, spec.protocol
-    if isinstance(physics, dict):
-        if not physics or not all(
-            isinstance(k, str) and _is_regressor(v) for k, v in physics.items()
-        ):
-            raise TypeError(
-                "physics must be a regressor on windows, or a non-empty dict of "
-                f"label to regressor; got physics={physics!r}."
-            )
-        for key in ("hybrid_physics", "ensemble_physics"):
-            label = getattr(proto, key)
-            if label is None and len(physics) > 1:
-                raise ValueError(
-                    f"protocol.{key} must name one of the physics "
-                    f"{sorted(physics)}: the spec has several."
-                )
-            if label is not None and label not in physics:
-                raise ValueError(
-                    f"protocol.{key}={label!r} is not a label of the physics "
-                    f"{sorted(physics)}."
-                )
-    elif not _is_regressor(physics):
-        raise TypeError(
-            "physics must be a regressor on windows (fit and predict, a "
-            "ParametricModel say) under protocol=OneStepWindows; got "
-            f"{type(physics).__name__}."
-        )
-
-
 def _check_takes_starts(physics):
     """Raise unless ``physics`` takes ``physics_starts``: its own ``starts``, unset."""
     if "starts" not in physics.get_params(deep=False):
@@ -559,7 +476,7 @@ class SystemSpec:
                 )
         _check_published(self.published)
         if isinstance(self.protocol, OneStepWindows):
-            _check_one_step(self)
+            check_one_step_spec(self)
             return
         if not (isinstance(self.protocol, str) and self.protocol == "free-run"):
             raise TypeError(
@@ -684,7 +601,7 @@ class SystemSpec:
             tail, no sample period (``dt``), or a test record given as data
             that does not fit them (:meth:`test_records`).
         """
-        _refuse_one_step(self, "estimation_records")
+        refuse_one_step(self, "estimation_records")
         records = self.records() if callable(self.records) else self.records
         U, Y, dts = as_records(
             records, inputs=self.inputs, outputs=self.outputs, name="records"
@@ -769,7 +686,7 @@ class SystemSpec:
             ``n_init`` samples, or whose columns differ from the estimation
             records'; the message names it.
         """
-        _refuse_one_step(self, "test_records")
+        refuse_one_step(self, "test_records")
         tests = self.tests() if callable(self.tests) else self.tests
         if tests is None:
             return {}

@@ -326,22 +326,6 @@ def _n_models(systems, settings_of):
     return sum(len(system.model_zoo(settings_of(system))) for system in systems)
 
 
-def _identity(systems, quick, seed, noise_type=None):
-    """What makes two runs the same: a resumed run must match it."""
-    import skhybrid
-
-    settings = _settings(quick, seed, noise_type, systems[0])
-    return {
-        "skhybrid": skhybrid.__version__,
-        "systems": [system.name for system in systems],
-        "quick": quick,
-        "seed": seed,
-        "settings": settings.to_dict(),
-        # What each spec says (its simulators, physics and protocol by name).
-        "specs": {system.name: system.digest() for system in systems},
-    }
-
-
 class _SpecError(Exception):
     pass
 
@@ -583,7 +567,11 @@ class _Plan:
             self.seed = seed
             self.systems = systems
             self.names = [system.name for system in systems]
-            self.identity = _identity(systems, args.quick, seed, args.noise_type)
+            from skhybrid.experiments._one_step import one_step_identity
+
+            self.identity = one_step_identity(
+                systems, args.quick, seed, args.noise_type
+            )
             self.n_models = _n_models(
                 systems,
                 lambda system: _settings(args.quick, seed, args.noise_type, system),

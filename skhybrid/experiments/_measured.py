@@ -26,11 +26,14 @@ import shlex
 import numpy as np
 
 import skhybrid
-from skhybrid.experiments._measured_system import MeasuredSystem
+from skhybrid.experiments._one_step import one_step_identity
+from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._registry import MEASURED_SYSTEMS
+from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
 from skhybrid.experiments._report import write_report
+from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
+from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments._store import RunFolder
 from skhybrid.hybrid import TransformedInputSimulator
 
@@ -164,30 +167,44 @@ def _run_folder(
     system, command, out, *, data, quick, seeds, n_jobs, overwrite, resume, progress
 ):
 
-    identity = measured_identity(system, quick, seeds)
+    if system.measured:
+        identity = measured_identity(system, quick, seeds)
+    else:
+        identity = one_step_identity([system], quick, seeds[0])
     folder = RunFolder(out).prepare()
     started = False  # run.json is this run's only once start() has written it
     try:
         # Every refusal comes before the folder changes: the folder's run, then
         # the records (read and checked), then what the folder holds of them.
         folder.check(identity, overwrite=overwrite, resume=resume)
-        records = record_digests(system, seeds, quick=quick, data=data)
+        records = None
+        if system.measured:
+            records = record_digests(system, seeds, quick=quick, data=data)
         folder.start(
             identity, command, overwrite=overwrite, resume=resume, records=records
         )
         started = True
         # The new run has started cleanly: the run it replaces can go.
         folder.discard_replaced()
-        run = run_seeds(
-            system,
-            seeds=seeds,
-            quick=quick,
-            n_jobs=n_jobs,
-            progress=progress,
-            folder=folder,
-            data=data,
-        )
-        write_report([run], folder.path)
+        if system.measured:
+            run = run_seeds(
+                system,
+                seeds=seeds,
+                quick=quick,
+                n_jobs=n_jobs,
+                progress=progress,
+                folder=folder,
+                data=data,
+            )
+        else:  # the one-step protocol: its splits simulated at the one seed
+            run = run_experiment(
+                system,
+                settings=system.default_settings(quick, seeds[0]),
+                n_jobs=n_jobs,
+                progress=progress,
+                folder=folder,
+            )
+        paths = write_report([run], folder.path, command=command)
         folder.complete()
     except KeyboardInterrupt:
         if started:
@@ -201,7 +218,9 @@ def _run_folder(
     finally:
         folder.lock.release()
         folder.remove_if_unused()
-    return run.summary()
+    if system.measured:
+        return run.summary()
+    return json.loads(paths["json"].read_text())["systems"][system.name]
 
 
 def run_system(
@@ -215,9 +234,14 @@ def run_system(
     resume=False,
     progress=True,
 ):
-    """Fit, choose, seal and score a measured system described by ``spec``.
+    """Fit, choose, seal and score the system described by ``spec``, into ``out``.
 
-    The public workflow of a user's machine (and of the built-in benchmarks):
+    The public workflow of a user's machine (and of the built-in benchmarks).
+    A spec of the one-step protocol (``protocol=OneStepWindows(...)``, the
+    paper's simulated systems) runs at one seed: its splits are simulated, the
+    paper's zoo fitted and scored on every test set, and the report written
+    into ``out`` with the same lock, resume and ``run.json`` as below. A spec
+    of the free-run protocol (measured records):
     the default candidate family is fitted on the estimation records and every
     choice made by blocked cross-validation of them at the first seed, and each
     choice is refitted on the whole records at every seed; the selections of
@@ -238,6 +262,7 @@ def run_system(
     seeds : int, sequence of int or None, default=(0, 1, 2)
         Seeds of the networks, each between 0 and ``2**32 - 1``; each is a full
         selection. An int is one seed (``--seed S``); None the default seeds.
+        A spec of the one-step protocol takes one seed (of its data too).
     quick : bool, default=False
         Shorter fits and fewer candidates (a smoke test, not a figure).
     n_jobs : int, default=2
@@ -278,7 +303,15 @@ def run_system(
     >>> results["chosen_test_rmse"]["test"]["mean"]  # doctest: +SKIP
     """
     seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume)
-    system = MeasuredSystem.from_spec(spec)
+    if not isinstance(spec, SystemSpec):
+        raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
+    if isinstance(spec.protocol, OneStepWindows) and len(seeds) != 1:
+        raise ValueError(
+            f"{spec.name!r} is a spec of the one-step protocol, whose run "
+            f"simulates its splits at one seed; got seeds={seeds}: give one "
+            "(seeds=0), and a run per seed for a spread."
+        )
+    system = system_of(spec)
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
         f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"

@@ -143,9 +143,8 @@ class MeasuredSystem:
         if isinstance(spec.protocol, OneStepWindows):
             raise ValueError(  # noqa: TRY004 - a value of the right type
                 f"{spec.name!r} is a spec of the one-step protocol "
-                "(protocol=OneStepWindows), whose simulated splits run at one "
-                "seed: run it with run_experiment(spec) or skhybrid run --system "
-                "module:object; run_system runs the free-run protocol."
+                "(protocol=OneStepWindows): skhybrid.experiments.get_system runs "
+                "it as a simulated system, not a measured one."
             )
         check_picklable(spec)
         return cls(spec)

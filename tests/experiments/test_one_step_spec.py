@@ -138,13 +138,33 @@ def test_the_protocol_names_the_parameter_it_refuses(kwargs, match):
         OneStepWindows(**kwargs)
 
 
-def test_a_one_step_spec_has_no_records_to_read_and_run_system_says_so(tmp_path):
-    spec = _motor()
+def test_a_one_step_spec_has_no_records_to_read(tmp_path):
     with pytest.raises(ValueError, match="protocol=OneStepWindows"):
-        spec.estimation_records()
-    with pytest.raises(ValueError, match="run_experiment"):
-        run_system(spec, tmp_path / "run")
-    assert not (tmp_path / "run").exists()
+        _motor().estimation_records()
+
+
+def test_run_system_runs_a_one_step_spec_at_one_seed(tmp_path, monkeypatch):
+    monkeypatch.setattr(
+        ExperimentSettings,
+        "quick",
+        classmethod(lambda cls, seed=0: replace(TINY, seed=seed)),
+    )
+    spec = _motor()
+    with pytest.raises(ValueError, match="one seed"):
+        run_system(spec, tmp_path / "two", seeds=[0, 1], quick=True)
+    assert not (tmp_path / "two").exists()
+    out = tmp_path / "run"
+    summary = run_system(spec, out, seeds=0, quick=True, n_jobs=1, progress=False)
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+    assert (out / "report.html").is_file()
+    on_disk = json.loads((out / "results.json").read_text())["systems"]["my-motor"]
+    assert summary == on_disk
+    # The same run again carries the folder's finished models on (resume).
+    again = run_system(
+        spec, out, seeds=0, quick=True, n_jobs=1, progress=False, resume=True
+    )
+    again.pop("wall_time_s"), summary.pop("wall_time_s")
+    assert again == summary
 
 
 def test_get_system_takes_a_spec_of_either_protocol():

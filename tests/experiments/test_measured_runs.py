@@ -136,7 +136,7 @@ def no_training(monkeypatch):
 
     monkeypatch.setattr(_measured_search, "fit_model", fail)
     monkeypatch.setattr(_measured_search, "choose_and_refit", fail)
-    monkeypatch.setattr(_measured.MeasuredSystem, "new_result", fail)
+    monkeypatch.setattr(MeasuredSystem, "new_result", fail)
 
 
 def _run(out, *extra, data=None):

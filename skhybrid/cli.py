@@ -305,25 +305,10 @@ def _error(message):
     sys.stderr.write(f"skhybrid: error: {message}\n")
 
 
-def _settings(quick, seed, noise_type=None, system=None):
-    """The run's settings: the system's own, with ``--noise-type`` where given."""
-    from dataclasses import replace
-
-    settings = system.default_settings(quick, seed)
-    if getattr(system, "measured", False):
-        return settings
-    return replace(settings, noise_type=noise_type)
-
-
 def _system(name):
     from skhybrid.experiments._registry import get_system
 
     return get_system(name)
-
-
-def _n_models(systems, settings_of):
-    """Models in the run of one-step systems: the zoo of each."""
-    return sum(len(system.model_zoo(settings_of(system))) for system in systems)
 
 
 class _SpecError(Exception):
@@ -456,21 +441,6 @@ def _check_run_args(args):
     return None
 
 
-def _check_protocol_args(args, system):
-    """One line for options that a spec's protocol does not take, or None."""
-    if system.measured and args.noise_type is not None:
-        return (
-            f"--noise-type sets the simulators' noise; {system.name} is a "
-            "free-run spec: drop --noise-type"
-        )
-    if not system.measured and args.seeds is not None and len(args.seeds) > 1:
-        return (
-            f"{system.name} is a spec of the one-step protocol and runs one seed; "
-            "got --seeds " + " ".join(map(str, args.seeds))
-        )
-    return None
-
-
 def main(argv=None):
     """Entry point of the ``skhybrid`` command; returns the exit status."""
     parser = _build_parser()
@@ -524,110 +494,37 @@ def main(argv=None):
         folder.remove_if_unused()
 
 
-class _Plan:
-    """What a run fits: one-step systems at one seed, or one measured system."""
+def _plan(args):
+    """What the run fits (a RunPlan), from the command line's arguments."""
+    from skhybrid.experiments._run_plan import RunPlan
 
-    def __init__(self, args):
-        self.args = args
-        if args.spec is not None:
-            from skhybrid.experiments._registry import system_of
+    if args.spec is not None:
+        from skhybrid.experiments._registry import system_of
 
-            try:
-                systems = [system_of(_load_spec(args.spec))]
-            except (TypeError, ValueError) as exc:
-                raise _SpecError(f"--system {args.spec}: {exc}") from None
-        elif args.system == "all":
-            systems = [_system(name) for name in SIMULATED_SYSTEMS]
-        else:
-            systems = [_system(args.system)]
-        self.measured = systems[0].measured
-        if args.spec is not None:
-            problem = _check_protocol_args(args, systems[0])
-            if problem is not None:
-                raise _SpecError(problem)
-        if self.measured:
-            from skhybrid.experiments._measured import (
-                DEFAULT_SEEDS,
-                check_seeds,
-                measured_identity,
-            )
-
-            self.system = systems[0]
-            seeds = DEFAULT_SEEDS if args.seeds is None else args.seeds
-            try:
-                self.seeds = check_seeds(seeds)
-            except ValueError as exc:
-                raise _SpecError(f"--seeds: {exc}") from None
-            self.names = [self.system.name]
-            self.identity = measured_identity(self.system, args.quick, self.seeds)
-            zoo = self.system.model_zoo(self.system.default_settings(args.quick, 0))
-            self.n_models = len(zoo) * len(self.seeds)
-        else:
-            seed = 0 if args.seeds is None else args.seeds[0]
-            self.seed = seed
-            self.systems = systems
-            self.names = [system.name for system in systems]
-            from skhybrid.experiments._one_step import one_step_identity
-
-            self.identity = one_step_identity(
-                systems, args.quick, seed, args.noise_type
-            )
-            self.n_models = _n_models(
-                systems,
-                lambda system: _settings(args.quick, seed, args.noise_type, system),
-            )
-
-    def check_files(self):
-        """Load and check a measured system's records (or raise); their SHA-256.
-
-        Returns
-        -------
-        records : dict of str to str or None
-            ``{name of a seed's models: SHA-256 of the records}``, for
-            :meth:`RunFolder.start`; None for a paper system.
-        """
-        if not self.measured:
-            return None
-        from skhybrid.experiments._sealed import record_digests
-
-        args = self.args
-        return record_digests(self.system, self.seeds, quick=args.quick, data=args.data)
-
-    def fit(self, folder, n_jobs):
-        args = self.args
-        if self.measured:
-            from skhybrid.experiments._sealed import run_seeds
-
-            return [
-                run_seeds(
-                    self.system,
-                    seeds=self.seeds,
-                    quick=args.quick,
-                    n_jobs=n_jobs,
-                    progress=not args.no_progress,
-                    folder=folder,
-                    data=args.data,
-                )
-            ]
-        from skhybrid import experiments
-
-        return [
-            experiments.run_experiment(
-                system,
-                settings=_settings(args.quick, self.seed, args.noise_type, system),
-                n_jobs=n_jobs,
-                progress=not args.no_progress,
-                folder=folder,
-                data=args.data,
-            )
-            for system in self.systems
-        ]
+        try:
+            systems = [system_of(_load_spec(args.spec))]
+        except (TypeError, ValueError) as exc:
+            raise _SpecError(f"--system {args.spec}: {exc}") from None
+    elif args.system == "all":
+        systems = [_system(name) for name in SIMULATED_SYSTEMS]
+    else:
+        systems = [_system(args.system)]
+    try:
+        return RunPlan(
+            systems,
+            seeds=args.seeds,
+            quick=args.quick,
+            data=args.data,
+            noise_type=args.noise_type,
+        )
+    except ValueError as exc:
+        raise _SpecError(str(exc)) from None
 
 
 def _run(args, argv, command, folder):
     from skhybrid.experiments import check_claims, write_report
 
-    plan = _Plan(args)
+    plan = _plan(args)
     n_models = plan.n_models
     start = time.perf_counter()
     started = False  # run.json is this run's only once start() has written it
@@ -637,7 +534,7 @@ def _run(args, argv, command, folder):
         # line and exit 2.
         folder.check(plan.identity, overwrite=args.overwrite, resume=args.resume)
         try:
-            records = plan.check_files()
+            records = plan.record_digests()
         except (ValueError, OSError) as exc:
             _error(str(exc))
             return 2
@@ -672,7 +569,7 @@ def _run(args, argv, command, folder):
                 sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
                 n_jobs = -1  # every worker of the cluster
             try:
-                results = plan.fit(folder, n_jobs)
+                results = plan.fit(folder, n_jobs=n_jobs, progress=not args.no_progress)
             except FileNotFoundError as exc:  # a measured benchmark's files
                 _error(str(exc))
                 folder.mark("failed", str(exc))

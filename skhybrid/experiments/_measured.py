@@ -1,4 +1,8 @@
-"""Run a measured system: :func:`run_system`, :func:`run_measured`, :func:`load_fitted`.
+"""Run a system into a run folder: :func:`run_system`, :func:`run_measured`, :func:`load_fitted`.
+
+:func:`run_system` takes a spec of either protocol and runs its
+:class:`~skhybrid.experiments._run_plan.RunPlan` in the folder's transaction,
+as ``skhybrid run`` does; the rest of this note is the free-run protocol's.
 
 A measured system, a user's or a built-in benchmark, is a
 :class:`~skhybrid.experiments.SystemSpec` run through the same pipeline as the
@@ -25,14 +29,14 @@ import shlex
 
 import numpy as np
 
-import skhybrid
-from skhybrid.experiments._one_step import one_step_identity
-from skhybrid.experiments._protocol import OneStepWindows
-from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
 from skhybrid.experiments._report import write_report
-from skhybrid.experiments._runner import run_experiment
-from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
+from skhybrid.experiments._run_plan import (
+    DEFAULT_SEEDS,
+    RunPlan,
+    check_seeds,
+    measured_identity,
+)
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments._store import RunFolder
 from skhybrid.hybrid import TransformedInputSimulator
@@ -45,11 +49,6 @@ __all__ = [
     "run_measured",
     "run_system",
 ]
-
-#: The seeds of a measured run: the first searches, each refits the choices.
-DEFAULT_SEEDS = (0, 1, 2)
-#: Largest seed: numpy's and scikit-learn's seeds are 32-bit unsigned integers.
-MAX_SEED = 2**32 - 1
 
 
 def _run_arguments(seeds, n_jobs, overwrite, resume):
@@ -78,133 +77,24 @@ def _run_arguments(seeds, n_jobs, overwrite, resume):
     return seeds, int(n_jobs)
 
 
-def check_seeds(seeds):
-    """The seeds of a measured run, checked: distinct ints >= 0.
-
-    Parameters
-    ----------
-    seeds : sequence of int
-        The first seed searches; each refits the choices.
-
-    Returns
-    -------
-    seeds : list of int
-        The seeds.
-
-    Raises
-    ------
-    ValueError
-        An empty sequence, a seed that is not an int between 0 and
-        ``2**32 - 1`` (numpy's seeds), or a repeated seed.
-    """
-    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
-        raise ValueError(
-            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1; "
-            f"got seeds={seeds!r}."
-        )
-    seeds = list(seeds)
-    if not seeds or any(
-        isinstance(s, bool)
-        or not isinstance(s, (int, np.integer))
-        or not 0 <= s <= MAX_SEED
-        for s in seeds
-    ):
-        raise ValueError(
-            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1 "
-            f"(numpy's seeds); got seeds={seeds!r}."
-        )
-    if len(set(seeds)) != len(seeds):
-        raise ValueError(f"seeds must differ; got seeds={seeds!r}.")
-    return [int(s) for s in seeds]
-
-
-def measured_identity(system, quick, seeds):
-    """What makes two measured runs the same (a resumed run must match it).
-
-    Parameters
-    ----------
-    system : MeasuredSystem
-        The system.
-    quick : bool
-        Shorter fits.
-    seeds : list of int
-        The seeds.
-
-    Returns
-    -------
-    identity : dict
-        The version and commit, the CPU kernels, the system (a user's spec by
-        its digest, a built-in benchmark by its module), ``quick``, the seeds
-        and the settings: a resume never reuses models fitted under another
-        commit, other kernels or another spec.
-    """
-    settings = system.default_settings(quick, seeds[0])
-    code = provenance()
-    return {
-        "skhybrid": skhybrid.__version__,
-        "commit": code["commit"],
-        "kernels": code["kernels"],
-        "systems": [system.name],
-        "spec": _spec_identity(system),
-        "quick": bool(quick),
-        "seeds": list(seeds),
-        "settings": settings.to_dict(),
-    }
-
-
-def _spec_identity(system):
-    """A user's spec by its digest, a built-in benchmark by its module."""
-    module = system.builtin_module
-    if module is not None:
-        return module.__name__
-    try:
-        return spec_digest(system.spec)
-    except AttributeError:  # a system that builds its spec from its files
-        return f"{type(system).__module__}.{type(system).__qualname__}"
-
-
-def _run_folder(
-    system, command, out, *, data, quick, seeds, n_jobs, overwrite, resume, progress
-):
-
-    if system.measured:
-        identity = measured_identity(system, quick, seeds)
-    else:
-        identity = one_step_identity([system], quick, seeds[0])
+def _run_folder(plan, command, out, *, n_jobs, overwrite, resume, progress):
+    """Run ``plan`` in the folder ``out`` as a transaction; its system's summary."""
+    identity = plan.identity
     folder = RunFolder(out).prepare()
     started = False  # run.json is this run's only once start() has written it
     try:
         # Every refusal comes before the folder changes: the folder's run, then
         # the records (read and checked), then what the folder holds of them.
         folder.check(identity, overwrite=overwrite, resume=resume)
-        records = None
-        if system.measured:
-            records = record_digests(system, seeds, quick=quick, data=data)
+        records = plan.record_digests()
         folder.start(
             identity, command, overwrite=overwrite, resume=resume, records=records
         )
         started = True
         # The new run has started cleanly: the run it replaces can go.
         folder.discard_replaced()
-        if system.measured:
-            run = run_seeds(
-                system,
-                seeds=seeds,
-                quick=quick,
-                n_jobs=n_jobs,
-                progress=progress,
-                folder=folder,
-                data=data,
-            )
-        else:  # the one-step protocol: its splits simulated at the one seed
-            run = run_experiment(
-                system,
-                settings=system.default_settings(quick, seeds[0]),
-                n_jobs=n_jobs,
-                progress=progress,
-                folder=folder,
-            )
-        paths = write_report([run], folder.path, command=command)
+        results = plan.fit(folder, n_jobs=n_jobs, progress=progress)
+        paths = write_report(results, folder.path, command=command)
         folder.complete()
     except KeyboardInterrupt:
         if started:
@@ -218,9 +108,10 @@ def _run_folder(
     finally:
         folder.lock.release()
         folder.remove_if_unused()
-    if system.measured:
-        return run.summary()
-    return json.loads(paths["json"].read_text())["systems"][system.name]
+    (result,) = results
+    if plan.measured:
+        return result.summary()
+    return json.loads(paths["json"].read_text())["systems"][result.system.name]
 
 
 def run_system(
@@ -305,24 +196,15 @@ def run_system(
     seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume)
     if not isinstance(spec, SystemSpec):
         raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
-    if isinstance(spec.protocol, OneStepWindows) and len(seeds) != 1:
-        raise ValueError(
-            f"{spec.name!r} is a spec of the one-step protocol, whose run "
-            f"simulates its splits at one seed; got seeds={seeds}: give one "
-            "(seeds=0), and a run per seed for a spread."
-        )
-    system = system_of(spec)
+    plan = RunPlan([system_of(spec)], seeds=seeds, quick=quick)
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
         f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"
     )
     return _run_folder(
-        system,
+        plan,
         command,
         out,
-        data=None,
-        quick=quick,
-        seeds=seeds,
         n_jobs=n_jobs,
         overwrite=overwrite,
         resume=resume,
@@ -388,12 +270,9 @@ def run_measured(
     words += ["--out", str(out)] + ["--quick"] * bool(quick)
     words += ["--seeds", *map(str, seeds)]
     return _run_folder(
-        MEASURED_SYSTEMS[name],
+        RunPlan([MEASURED_SYSTEMS[name]], seeds=seeds, quick=quick, data=data),
         "skhybrid " + shlex.join(words),
         out,
-        data=data,
-        quick=quick,
-        seeds=seeds,
         n_jobs=n_jobs,
         overwrite=overwrite,
         resume=False,

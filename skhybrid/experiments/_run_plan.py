@@ -1,0 +1,254 @@
+"""What a run fits into its folder: :class:`RunPlan`, the same for every entry.
+
+``skhybrid run`` and :func:`~skhybrid.experiments.run_system` both run a plan
+inside the run folder's transaction: its identity (what a resume must match),
+its records' digests (checked before the folder changes), and its fit. A plan
+holds the one-step protocol's systems at one seed (``skhybrid run all`` holds
+the paper's three), or one free-run system at its seeds, searched at the first
+and refitted at each, its selection sealed before the test records are read.
+"""
+
+import numpy as np
+
+import skhybrid
+from skhybrid.experiments._one_step import one_step_identity
+from skhybrid.experiments._provenance import provenance
+from skhybrid.experiments._runner import run_experiment
+from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
+
+__all__ = [
+    "DEFAULT_SEEDS",
+    "MAX_SEED",
+    "RunPlan",
+    "check_seeds",
+    "measured_identity",
+]
+
+#: The seeds of a measured run: the first searches, each refits the choices.
+DEFAULT_SEEDS = (0, 1, 2)
+#: Largest seed: numpy's and scikit-learn's seeds are 32-bit unsigned integers.
+MAX_SEED = 2**32 - 1
+
+
+def check_seeds(seeds):
+    """The seeds of a measured run, checked: distinct ints >= 0.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        The first seed searches; each refits the choices.
+
+    Returns
+    -------
+    seeds : list of int
+        The seeds.
+
+    Raises
+    ------
+    ValueError
+        An empty sequence, a seed that is not an int between 0 and
+        ``2**32 - 1`` (numpy's seeds), or a repeated seed.
+    """
+    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
+        raise ValueError(
+            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1; "
+            f"got seeds={seeds!r}."
+        )
+    seeds = list(seeds)
+    if not seeds or any(
+        isinstance(s, bool)
+        or not isinstance(s, (int, np.integer))
+        or not 0 <= s <= MAX_SEED
+        for s in seeds
+    ):
+        raise ValueError(
+            "seeds must be a non-empty sequence of ints between 0 and 2**32 - 1 "
+            f"(numpy's seeds); got seeds={seeds!r}."
+        )
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must differ; got seeds={seeds!r}.")
+    return [int(s) for s in seeds]
+
+
+def measured_identity(system, quick, seeds):
+    """What makes two measured runs the same (a resumed run must match it).
+
+    Parameters
+    ----------
+    system : MeasuredSystem
+        The system.
+    quick : bool
+        Shorter fits.
+    seeds : list of int
+        The seeds.
+
+    Returns
+    -------
+    identity : dict
+        The version and commit, the CPU kernels, the system (a user's spec by
+        its digest, a built-in benchmark by its module), ``quick``, the seeds
+        and the settings: a resume never reuses models fitted under another
+        commit, other kernels or another spec.
+    """
+    settings = system.default_settings(quick, seeds[0])
+    code = provenance()
+    return {
+        "skhybrid": skhybrid.__version__,
+        "commit": code["commit"],
+        "kernels": code["kernels"],
+        "systems": [system.name],
+        "spec": _spec_identity(system),
+        "quick": bool(quick),
+        "seeds": list(seeds),
+        "settings": settings.to_dict(),
+    }
+
+
+def _spec_identity(system):
+    """A user's spec by its digest, a built-in benchmark by its module."""
+    module = system.builtin_module
+    if module is not None:
+        return module.__name__
+    try:
+        return spec_digest(system.spec)
+    except AttributeError:  # a system that builds its spec from its files
+        return f"{type(system).__module__}.{type(system).__qualname__}"
+
+
+class RunPlan:
+    """What a run fits: one-step systems at one seed, or a free-run one at its seeds.
+
+    Parameters
+    ----------
+    systems : list of OneStepSystem or MeasuredSystem
+        One free-run system, or one or more of the one-step protocol.
+    seeds : sequence of int or None, default=None
+        The seeds (None: the free-run default, ``(0, 1, 2)``, or seed 0); a
+        one-step plan takes one.
+    quick : bool, default=False
+        Small data, few epochs, short fits.
+    data : str or Path or None, default=None
+        A built-in measured benchmark's files.
+    noise_type : {"measurement", "process"} or None, default=None
+        Where a one-step system's simulators put their noise (None: its own).
+
+    Raises
+    ------
+    ValueError
+        Systems of both protocols, several free-run systems, a one-step plan
+        given several seeds, or seeds that are not distinct ints in numpy's
+        range; ``noise_type`` for a free-run system.
+    """
+
+    def __init__(self, systems, *, seeds=None, quick=False, data=None, noise_type=None):
+        systems = list(systems)
+        self.measured = systems[0].measured
+        if any(system.measured != self.measured for system in systems):
+            raise ValueError("a run holds systems of one protocol")
+        if self.measured and len(systems) != 1:
+            raise ValueError("a run of the free-run protocol holds one system")
+        if self.measured and noise_type is not None:
+            raise ValueError(
+                f"--noise-type sets the simulators' noise; {systems[0].name} is a "
+                "free-run (measured) system: drop --noise-type"
+            )
+        if seeds is None:
+            seeds = DEFAULT_SEEDS if self.measured else (0,)
+        self.seeds = check_seeds(seeds)
+        if not self.measured and len(self.seeds) != 1:
+            names = ", ".join(system.name for system in systems)
+            raise ValueError(
+                f"{names} runs by the one-step protocol and runs one seed (its "
+                f"splits are simulated at it); got seeds={self.seeds}: give one, "
+                "and a run per seed for a spread"
+            )
+        self.systems = systems
+        self.quick = bool(quick)
+        self.data = data
+        self.noise_type = noise_type
+
+    @property
+    def names(self):
+        """The systems' names."""
+        return [system.name for system in self.systems]
+
+    def settings(self, system, seed):
+        """``system``'s settings at ``seed`` (a one-step one's noise as asked)."""
+        from dataclasses import replace
+
+        settings = system.default_settings(self.quick, seed)
+        if self.measured:
+            return settings
+        return replace(settings, noise_type=self.noise_type)
+
+    @property
+    def identity(self):
+        """What a resumed run must match (:class:`RunFolder`'s ``run.json``)."""
+        if self.measured:
+            return measured_identity(self.systems[0], self.quick, self.seeds)
+        return one_step_identity(
+            self.systems, self.quick, self.seeds[0], self.noise_type
+        )
+
+    @property
+    def n_models(self):
+        """Models the run fits: each system's zoo, at each seed."""
+        return len(self.seeds) * sum(
+            len(system.model_zoo(self.settings(system, self.seeds[0])))
+            for system in self.systems
+        )
+
+    def record_digests(self):
+        """Read and check a free-run system's records (or raise); their SHA-256.
+
+        Returns
+        -------
+        records : dict of str to str or None
+            ``{name of a seed's models: SHA-256 of the records}``, for
+            :meth:`RunFolder.start`; None for simulated systems.
+        """
+        if not self.measured:
+            return None
+        return record_digests(
+            self.systems[0], self.seeds, quick=self.quick, data=self.data
+        )
+
+    def fit(self, folder, *, n_jobs=1, progress=False):
+        """Fit every system into ``folder``: the results to report.
+
+        Parameters
+        ----------
+        folder : RunFolder
+            The started run folder.
+        n_jobs : int, default=1
+            joblib workers (-1: every core, or every Dask worker).
+        progress : bool, default=False
+            Progress on standard error.
+
+        Returns
+        -------
+        results : list of ExperimentResult or MeasuredRun
+            One per system, for :func:`~skhybrid.experiments.write_report`.
+        """
+        if self.measured:
+            run = run_seeds(
+                self.systems[0],
+                seeds=self.seeds,
+                quick=self.quick,
+                n_jobs=n_jobs,
+                progress=progress,
+                folder=folder,
+                data=self.data,
+            )
+            return [run]
+        return [
+            run_experiment(
+                system,
+                settings=self.settings(system, self.seeds[0]),
+                n_jobs=n_jobs,
+                progress=progress,
+                folder=folder,
+                data=self.data,
+            )
+            for system in self.systems
+        ]

@@ -1,4 +1,4 @@
-"""Run a system into a run folder: :func:`run_system`, :func:`run_measured`, :func:`load_fitted`.
+"""Run a system into a run folder: run_system, run_measured and load_fitted.
 
 :func:`run_system` takes a spec of either protocol and runs its
 :class:`~skhybrid.experiments._run_plan.RunPlan` in the folder's transaction,

@@ -27,7 +27,6 @@ from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.cli import main
 from skhybrid.experiments import (
     SystemSpec,
-    _measured,
     _measured_search,
     _measured_system,
     _measured_zoo,

@@ -8,6 +8,8 @@ the paper's three), or one free-run system at its seeds, searched at the first
 and refitted at each, its selection sealed before the test records are read.
 """
 
+from dataclasses import replace
+
 import numpy as np
 
 import skhybrid
@@ -174,8 +176,6 @@ class RunPlan:
 
     def settings(self, system, seed):
         """``system``'s settings at ``seed`` (a one-step one's noise as asked)."""
-        from dataclasses import replace
-
         settings = system.default_settings(self.quick, seed)
         if self.measured:
             return settings

@@ -447,7 +447,13 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     if args.command == "list":
-        _list(sys.stdout, args.data)
+        try:
+            _list(sys.stdout, args.data)
+            sys.stdout.flush()
+        except BrokenPipeError:
+            # The reader stopped early (``skhybrid list | head``): not an error.
+            # Python's own flush at exit would fail again on the closed pipe.
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
 
     problem = _check_run_args(args)

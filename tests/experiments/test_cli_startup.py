@@ -89,3 +89,17 @@ def test_claims_are_judged_on_full_settings_only(monkeypatch):
     claim = _claims.check_claims(quick)[0]
     assert claim["passed"] is None
     assert claim["detail"] == "not evaluated on quick settings; x = 2"
+
+
+def test_list_into_a_pipe_closed_early_ends_quietly():
+    # ``skhybrid list | head -1``: the reader goes before the list is written.
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "skhybrid.cli", "list"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0
+    assert "Traceback" not in err and "BrokenPipe" not in err

@@ -268,7 +268,7 @@ def test_a_refused_resume_leaves_run_json_as_it_was(run):
 
 
 def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkeypatch):
-    from skhybrid.experiments import _measured
+    from skhybrid.experiments import _run_plan
     from skhybrid.experiments._store import RunFolder
 
     seen = {}
@@ -285,7 +285,7 @@ def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkey
         raise KeyboardInterrupt
 
     monkeypatch.setattr(RunFolder, "discard_replaced", watch)
-    monkeypatch.setattr(_measured, "run_seeds", stop)
+    monkeypatch.setattr(_run_plan, "run_seeds", stop)
     with pytest.raises(KeyboardInterrupt):
         run_system(make_spec(), run, quick=True, seeds=[0], overwrite=True, n_jobs=1)
     assert {"models", "run.json", "selection.json", "results.json"} <= set(
@@ -299,12 +299,12 @@ def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkey
 
 
 def test_run_json_ends_failed_after_an_error_in_python(tmp_path, monkeypatch):
-    from skhybrid.experiments import _measured
+    from skhybrid.experiments import _run_plan
 
     def fail(*args, **kwargs):
         raise RuntimeError("a fit broke")
 
-    monkeypatch.setattr(_measured, "run_seeds", fail)
+    monkeypatch.setattr(_run_plan, "run_seeds", fail)
     with pytest.raises(RuntimeError, match="a fit broke"):
         run_system(make_spec(), tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
     manifest = json.loads((tmp_path / "run" / "run.json").read_text())
@@ -428,8 +428,8 @@ def test_an_int_is_one_seed_and_none_the_default_seeds(
 
     seen = {}
 
-    def capture(system, command, out, **kwargs):
-        seen.update(kwargs)
+    def capture(plan, command, out, **kwargs):
+        seen["seeds"] = plan.seeds
 
     monkeypatch.setattr(_measured, "_run_folder", capture)
     run_system(make_spec(), tmp_path / "run", seeds=seeds, n_jobs=1)

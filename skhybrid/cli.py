@@ -412,12 +412,8 @@ def _check_run_args(args):
     measured = args.system in MEASURED_SYSTEMS
     if (args.system is None) == (args.spec is None):
         return "give one system: SYSTEM, or --system MODULE:OBJECT for your own"
-    if measured and args.noise_type is not None:
-        name = args.system or args.spec
-        return (
-            f"--noise-type sets the simulators' noise; {name} is a measured "
-            "system: drop --noise-type"
-        )
+    # Seeds and --noise-type are checked by the run's plan, for a spec as for a
+    # built-in system: they depend on its protocol.
     if args.spec is None and not measured and args.data is not None:
         return (
             f"--data names a measured benchmark's files; {args.system} is "
@@ -431,13 +427,6 @@ def _check_run_args(args):
         return "give --seeds S [S ...] once (--seed S is the same option)"
     if args.seed is not None:
         args.seeds = [args.seed]
-    several = args.seeds is not None and len(args.seeds) > 1
-    if args.spec is None and not measured and several:
-        return (
-            f"{args.system} is simulated and runs one seed; got --seeds "
-            + " ".join(map(str, args.seeds))
-            + " (a measured run makes a selection at each of several)"
-        )
     return None
 
 
@@ -628,13 +617,9 @@ def _measured_lines(run):
 
     _, chosen = run.test_summary()
     seeds = ", ".join(map(str, run.seeds))
-    first = run.results[0]
     models = set(run.chosen().values())
     # One model at every seed, none of whose fits depends on the seed.
-    deterministic = len(models) == 1 and all(
-        (first.fits.get(m, {}).get("selection") or {}).get("deterministic")
-        for m in models
-    )
+    deterministic = len(models) == 1 and models <= set(run.deterministic_models())
     for split, spread in chosen.items():
         text = spread_text(
             spread, deterministic=deterministic, unit=unit, plus_minus="+-"

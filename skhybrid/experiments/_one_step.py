@@ -27,7 +27,7 @@ from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shar
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments._zoo import model_zoo
 
-__all__ = ["OneStepSystem", "one_step_identity"]
+__all__ = ["OneStepSystem"]
 
 #: Offset of the validation episodes' seed from the run's (the test splits use
 #: 1000, 2000, ... in the spec's order).
@@ -374,37 +374,3 @@ class OneStepSystem:
         tests = [(split, result.splits[split].X) for split in result.test_splits]
         tests.append((VALIDATION_SPLIT, result.validation.X))
         return delayed(fit_one)(name, model, train.X, train.y, tests)
-
-
-def one_step_identity(systems, quick, seed, noise_type=None):
-    """What makes two runs of one-step systems the same (a resume must match it).
-
-    Parameters
-    ----------
-    systems : list of OneStepSystem
-        The systems of the run (``skhybrid run all`` runs the three).
-    quick : bool
-        Small data and few epochs.
-    seed : int
-        The run's seed.
-    noise_type : {"measurement", "process"} or None, default=None
-        ``--noise-type``; None takes each system's own.
-
-    Returns
-    -------
-    identity : dict
-        The version, the systems with their specs' digests, ``quick``, the seed
-        and the settings: the same for ``skhybrid run`` and ``run_system``.
-    """
-    import skhybrid
-
-    settings = replace(systems[0].default_settings(quick, seed), noise_type=noise_type)
-    return {
-        "skhybrid": skhybrid.__version__,
-        "systems": [system.name for system in systems],
-        "quick": bool(quick),
-        "seed": seed,
-        "settings": settings.to_dict(),
-        # What each spec says (its simulators, physics and protocol by name).
-        "specs": {system.name: system.digest() for system in systems},
-    }

@@ -13,7 +13,6 @@ from dataclasses import replace
 import numpy as np
 
 import skhybrid
-from skhybrid.experiments._one_step import one_step_identity
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
@@ -152,7 +151,7 @@ class RunPlan:
         if self.measured and noise_type is not None:
             raise ValueError(
                 f"--noise-type sets the simulators' noise; {systems[0].name} is a "
-                "free-run (measured) system: drop --noise-type"
+                "measured system: drop --noise-type"
             )
         if seeds is None:
             seeds = DEFAULT_SEEDS if self.measured else (0,)
@@ -160,9 +159,10 @@ class RunPlan:
         if not self.measured and len(self.seeds) != 1:
             names = ", ".join(system.name for system in systems)
             raise ValueError(
-                f"{names} runs by the one-step protocol and runs one seed (its "
-                f"splits are simulated at it); got seeds={self.seeds}: give one, "
-                "and a run per seed for a spread"
+                f"{names} is simulated and runs one seed (the one-step protocol "
+                f"simulates its splits at it); got seeds {self.seeds}: give one, "
+                "and a run per seed for a spread (a measured run makes a "
+                "selection at each of several)"
             )
         self.systems = systems
         self.quick = bool(quick)
@@ -186,9 +186,15 @@ class RunPlan:
         """What a resumed run must match (:class:`RunFolder`'s ``run.json``)."""
         if self.measured:
             return measured_identity(self.systems[0], self.quick, self.seeds)
-        return one_step_identity(
-            self.systems, self.quick, self.seeds[0], self.noise_type
-        )
+        return {
+            "skhybrid": skhybrid.__version__,
+            "systems": self.names,
+            "quick": self.quick,
+            "seed": self.seeds[0],
+            "settings": self.settings(self.systems[0], self.seeds[0]).to_dict(),
+            # What each spec says (its simulators, physics and protocol by name).
+            "specs": {system.name: system.digest() for system in self.systems},
+        }
 
     @property
     def n_models(self):

@@ -468,6 +468,20 @@ class MeasuredRun:
             ),
         }
 
+    def deterministic_models(self):
+        """The models none of whose fits depends on the seed, sorted.
+
+        Returns
+        -------
+        names : list of str
+            Their figure is the same at every seed ("deterministic").
+        """
+        return sorted(
+            name
+            for name, fit in self.results[0].fits.items()
+            if (fit.get("selection") or {}).get("deterministic")
+        )
+
     def summary(self):
         """The system's entry of ``results.json``.
 
@@ -533,11 +547,7 @@ class MeasuredRun:
                 )
                 for split in self.test_splits
             },
-            "deterministic": sorted(
-                name
-                for name, fit in first.fits.items()
-                if (fit.get("selection") or {}).get("deterministic")
-            ),
+            "deterministic": self.deterministic_models(),
             "stochastic": {str(r.settings.seed): r.stochastic for r in self.results},
             "band_coverage": {
                 split: _spread(

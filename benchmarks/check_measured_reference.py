@@ -26,7 +26,10 @@ figures then agree within the seeds' spread, not to the digit, and the hash
 differs).
 
 A benchmark with no release run recorded under the cross-validated search yet
-is reported as such (``REFERENCE`` lists what has been recorded).
+is reported as such (``REFERENCE`` lists what has been recorded). A record made
+before the family had its stack is compared with the family without it (the
+stack is fitted last and changes no other model's fit or figure); the stack's
+own CV RMSE is then printed apart, with whether the run quotes it.
 
 Run: ``python benchmarks/check_measured_reference.py --data ../shared/data``;
 ``--runs DIR`` keeps the run folders, ``--only SYSTEM`` checks one benchmark.
@@ -42,11 +45,17 @@ from pathlib import Path
 
 from skhybrid.benchmarks import MEASURED
 
+#: The family's stack, the last model of every measured run.
+STACK_MODEL = "stacked"
+
 #: The release runs' record (docs/results.md): system -> chosen models at seeds
 #: 0, 1, 2, each seed's CV RMSE of its chosen model (official units), the hash
 #: of the choices (the sealed selection without its provenance) and the seal's
 #: SHA-256 itself. From the release run of 2026-11-27 at commit 5454653
 #: (benchmarks/LOG.md); a benchmark whose release run is still to come is absent.
+#: That run's family had no stack (a record without ``"stack": True``): the
+#: check compares the family without it, chosen by the same rule, and prints
+#: the stack's CV RMSE apart, with whether the run quotes it.
 REFERENCE = {
     "cascaded-tanks": {
         "chosen": {
@@ -158,26 +167,89 @@ def run(system, data, runs, kernels):
     return out
 
 
-def choices_sha256(out):
+def _argmin(validation):
+    return min(validation, key=validation.get) if validation else None
+
+
+def without_stack(selection):
+    """A sealed selection as the family without its stack would have sealed it.
+
+    The stack is fitted last, from the other models' out-of-fold runs, and
+    changes none of their fits or figures: removing it (and choosing among the
+    others by the same rule) gives the selection of the family the record was
+    made with.
+    """
+    seeds = []
+    for entry in selection["seeds"]:
+        validation = {
+            k: v for k, v in entry["validation_rmse"].items() if k != STACK_MODEL
+        }
+        seeds.append(
+            {
+                **entry,
+                "models": {
+                    k: v for k, v in entry["models"].items() if k != STACK_MODEL
+                },
+                "validation_rmse": validation,
+                "chosen_model": _argmin(validation),
+            }
+        )
+    return {**selection, "seeds": seeds}
+
+
+def choices_sha256(out, record_stack=True):
     """SHA-256 of the sealed selection in ``out`` without its provenance.
 
     The seal hashes the commit, the version and the CPU kernels with the
     choices; a later commit that changes no choice changes the seal but not this.
+    ``record_stack=False`` hashes the family without its stack
+    (:func:`without_stack`), as a record made before the stack holds it.
     """
     selection = json.loads((out / "selection.json").read_text())["selection"]
     selection = {k: v for k, v in selection.items() if k != "provenance"}
+    if not record_stack:
+        selection = without_stack(selection)
     text = json.dumps(selection, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def selection(out, system):
-    """The chosen models, each seed's CV RMSE of its choice, and their hash."""
+def selection(out, system, record_stack=True):
+    """The chosen models, each seed's CV RMSE of its choice, and their hash.
+
+    With ``record_stack=False``, of the family without its stack.
+    """
     results = json.loads((out / "results.json").read_text())["systems"][system]
-    chosen = results["chosen_model"]
-    cv = {
-        seed: results["cv_rmse"][seed][model]["mean"] for seed, model in chosen.items()
+    cv_rmse = {
+        seed: {
+            model: entry["mean"]
+            for model, entry in by_model.items()
+            if record_stack or model != STACK_MODEL
+        }
+        for seed, by_model in results["cv_rmse"].items()
     }
-    return chosen, cv, choices_sha256(out)
+    chosen = results["chosen_model"]
+    if not record_stack:  # the same rule, among the models the record had
+        chosen = {seed: _argmin(cv_rmse[seed]) for seed in chosen}
+    cv = {seed: cv_rmse[seed][model] for seed, model in chosen.items()}
+    return chosen, cv, choices_sha256(out, record_stack)
+
+
+def stack_lines(out, system):
+    """The stack's CV RMSE at each seed and whether the run quotes it (no test)."""
+    results = json.loads((out / "results.json").read_text())["systems"][system]
+    lines = []
+    for seed, by_model in results["cv_rmse"].items():
+        entry = by_model.get(STACK_MODEL)
+        if entry is None:
+            continue
+        quoted = results["chosen_model"][seed] == STACK_MODEL
+        lines.append(
+            f"-    {system} seed {seed}: stack CV RMSE {entry['mean']:.4g} "
+            f"({'chosen' if quoted else 'not chosen'}; weights "
+            + ", ".join(f"{m} {w:.3g}" for m, w in results["stack_weights"].items())
+            + ")"
+        )
+    return lines
 
 
 def compare(system, record, chosen, cv, sha256, *, native=False):
@@ -221,9 +293,11 @@ def main(argv=None):
             continue
         kernels = {} if args.native else KERNELS[system]
         out = run(system, args.data, runs, kernels)
-        lines, failed = compare(
-            system, REFERENCE[system], *selection(out, system), native=args.native
-        )
+        record = REFERENCE[system]
+        picked = selection(out, system, record.get("stack", False))
+        lines, failed = compare(system, record, *picked, native=args.native)
+        if not record.get("stack", False):
+            lines += stack_lines(out, system)
         print("\n".join(lines))
         failures += failed
     print(

@@ -3,9 +3,10 @@
 Reads each run folder's ``results.json`` (written by ``skhybrid run NAME --data
 DIR --out RUNS/NAME``) and prints, per benchmark: the chosen model, its CV RMSE
 (mean ± std over the folds), its test RMSE per test record (mean ± std over the
-seeds), test / CV, the band's coverage, the family's other models (CV and test),
-the seal and the wall time. **Running it reads test scores**: it is part of a
-release run's one look, to be logged in ``benchmarks/LOG.md``.
+seeds), test / CV, the band's coverage, the family's other models (CV and test)
+and the stack's weights, the seal and the wall time. **Running it reads test
+scores**: it is part of a release run's one look, to be logged in
+``benchmarks/LOG.md``.
 
 Run: ``python benchmarks/release_table.py RUNS/cascaded-tanks RUNS/emps ...``.
 """
@@ -72,6 +73,12 @@ def main(argv=None):
             cv_text = _cv(cv[model]) if model in cv else "n/a"
             mark = " (chosen)" if model in chosen else ""
             rows.append(f"| {model}{mark} | {cv_text} | " + " | ".join(cells) + " |")
+        weights = s.get("stack_weights") or {}
+        if weights:
+            rows.append(
+                "\nThe stack's weights: "
+                + ", ".join(f"{m} {w:.3f}" for m, w in weights.items() if w > 0)
+            )
         details.append("\n".join(rows))
     print("\n".join(details))
 

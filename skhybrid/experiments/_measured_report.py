@@ -361,6 +361,19 @@ def measured_section(run, figure):
     )
     stochastic = _stochastic_html(summary, unit)
     searched = summary.get("searched_at_seed", summary["seeds"][0])
+    weights = summary.get("stack_weights") or {}
+    stack = ""
+    if weights:
+        terms = ", ".join(
+            f"{html.escape(model)} {w:.3g}"
+            for model, w in sorted(weights.items(), key=lambda kv: -kv[1])
+        )
+        stack = (
+            "<p>The stack (<code>stacked</code>) averages the models' free runs "
+            f"with the weights {terms}, fitted on their out-of-fold runs; its CV "
+            "RMSE is cross-fitted (each fold scored with weights fitted on the "
+            "other folds).</p>"
+        )
     return f"""<h2>{html.escape(summary["title"])}</h2>
 <p>Free-run simulation RMSE on the test record(s) [{unit}], mean &plusmn; standard
 deviation over seeds {seeds} (searched at seed {searched}, each choice refitted at
@@ -380,7 +393,7 @@ read.</p>{notes}
 <th>CV RMSE [{unit}]</th><th>test / CV</th><th>source</th></tr>
 {"".join(rows)}</table>
 <p>Chosen by the lowest mean CV RMSE (never on a test record): {chosen}.</p>
-{apart}
+{stack}{apart}
 <p>Physics parameters fitted (value &plusmn; standard error): {params}</p>
 {stochastic}
 <h4>Test records and free runs (seed {summary["seeds"][0]})</h4>

@@ -216,6 +216,8 @@ def choose_and_refit(model, ctx, deps):
         The chosen candidate's out-of-fold free runs: for each fold, its
         simulated samples of the held-out blocks after their first ``n_init``.
     """
+    if model.choose is not None:  # the family's stack: a choice of its own
+        return model.choose(model, ctx, deps)
     U, Y, n_init = list(ctx.U), list(ctx.Y), ctx.n_init
     scale = ctx.system.scale
     candidates = model.candidates(ctx, {k: d["fit"] for k, d in deps.items()})
@@ -458,7 +460,7 @@ def fit_model(name, model, ctx, deps, sink=None):
         chosen, selection, runs = choose_and_refit(model, ctx, deps)
         fit_time = time.perf_counter() - start
     if chosen is None:
-        selection["failed"] = "every candidate's fit failed"
+        selection.setdefault("failed", "every candidate's fit failed")
     messages = sorted(
         {
             f"{w.category.__name__}: {w.message}"

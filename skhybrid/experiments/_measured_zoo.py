@@ -33,6 +33,7 @@ from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.experiments._fitting import (
     fit_segments,
 )
+from skhybrid.experiments._measured_stack import STACK, choose_stack
 from skhybrid.experiments._progress import (
     attach_epoch_logger,
     epoch_budget,
@@ -229,6 +230,12 @@ class ZooModel:
         train (:func:`~skhybrid.experiments._progress.epoch_budget` of its
         networks), in the order of its candidates; None for a model without
         networks. The progress bar's total (:func:`epochs_at_most`).
+    choose : callable or None, default=None
+        ``choose(model, ctx, deps)`` returns ``(fitted, selection, runs)`` as
+        :func:`~skhybrid.experiments._measured_search.choose_and_refit` does,
+        for a model chosen otherwise than by searching its candidates (the
+        family's stack, from the other models' out-of-fold runs); None
+        searches ``candidates`` with ``fit``.
     """
 
     fit: object
@@ -238,6 +245,7 @@ class ZooModel:
     choice: str = "chosen"
     notes: dict = field(default_factory=dict)
     epochs: object = None
+    choose: object = None
 
 
 # -- the fits ------------------------------------------------------------------------
@@ -455,8 +463,8 @@ def zoo(system, quick=False):
     zoo : dict of str to ZooModel
         The physics, a linear ARX, a dense NARX, the physics with a linear and a
         dense static correction and with the mean of three dense corrections
-        (the dense one's window), and, where the system has candidates, the
-        state-space hybrid.
+        (the dense one's window), where the system has candidates the
+        state-space hybrid, and last the stack of them all (``"stacked"``).
     """
     models = {
         "physics": ZooModel(
@@ -510,4 +518,13 @@ def zoo(system, quick=False):
             requires=("physics",),
             epochs=_hybrid_epochs,
         )
+    # Last: the weighted average of the others' free runs, its weights fitted on
+    # their out-of-fold runs and its CV score cross-fitted.
+    models[STACK] = ZooModel(
+        None,
+        None,
+        requires=tuple(models),
+        choose=partial(choose_stack, n_splits=N_SPLITS),
+        notes={"weights": "non-negative, summing to one, fitted on the folds"},
+    )
     return models

@@ -86,18 +86,22 @@ def _stages(zoo, todo):
 
 
 def _dependency(result, folder, name, record=None, out=None):
-    """What a model that requires ``name`` reads of it: its fits and record."""
+    """What a model that requires ``name`` reads of it: its fits, record and runs."""
+    # Its out-of-fold free runs (a measured model's), as stored or restored.
+    runs = getattr(result, "validation_runs", {}).get(name)
     if out is not None:
         return {
             "model": out["estimator"],
             "validation_fit": out.get("extras", {}).get("validation_fit"),
             "fit": result.fits[name],
+            "runs": runs,
         }
     key = result.store_key
     return {
         "model": folder.load_estimator(key, record),
         "validation_fit": folder.load_estimator(key, record, "validation_fit"),
         "fit": record["fit"],
+        "runs": runs,
     }
 
 

@@ -23,6 +23,7 @@ from skhybrid.experiments._measured_report import (
     measured_figure,
     measured_section,
 )
+from skhybrid.experiments._measured_stack import STACK
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
@@ -34,6 +35,7 @@ from skhybrid.experiments._stochastic import (
     residual_tests,
 )
 from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
+from skhybrid.model_selection import StackedSimulation
 
 __all__ = [
     "MeasuredRun",
@@ -277,9 +279,17 @@ def _from_estimation_start(model, u, u_est, y_est, n_init):
 
     Defined for a :class:`~skhybrid.domain.StateSpaceModel` physics (behind
     transformed inputs), its static corrections and the state-space hybrid
-    (its corrected run from the physics' state); NaN for other models.
+    (its corrected run from the physics' state), and for a stack of them (its
+    weighted average of their runs); NaN for other models.
     """
     nan = np.full(len(u), np.nan)
+    if isinstance(model, StackedSimulation):
+        runs = [
+            w * _from_estimation_start(member, u, u_est, y_est, n_init)
+            for w, member in zip(model.weights_, model.estimators_, strict=True)
+            if w > 0
+        ]
+        return np.sum(runs, axis=0) if runs else nan
     correction = model if hasattr(model, "correct") else None
     physics = getattr(model, "physics", None) if correction is not None else model
     inner = getattr(physics, "estimator", physics)
@@ -482,6 +492,18 @@ class MeasuredRun:
             if (fit.get("selection") or {}).get("deterministic")
         )
 
+    def stack_weights(self):
+        """The family's stack's weights, by model (fitted at the first seed).
+
+        Returns
+        -------
+        weights : dict of str to float
+            ``{model: weight}``, fitted on every fold's out-of-fold free runs;
+            empty where the family has no stack or it failed.
+        """
+        fit = self.results[0].fits.get(STACK, {})
+        return dict((fit.get("selection") or {}).get("weights") or {})
+
     def summary(self):
         """The system's entry of ``results.json``.
 
@@ -496,7 +518,7 @@ class MeasuredRun:
             its band's coverage of each test record over seeds, every model's
             CV RMSE by seed (mean, std and by fold), the chosen model's test /
             CV ratio over seeds, the models that cannot vary with the seed,
-            wall time and rows.
+            the stack's weights, wall time and rows.
         """
         by_model, chosen = self.test_summary()
         first = self.results[0]
@@ -548,6 +570,7 @@ class MeasuredRun:
                 for split in self.test_splits
             },
             "deterministic": self.deterministic_models(),
+            "stack_weights": self.stack_weights(),
             "stochastic": {str(r.settings.seed): r.stochastic for r in self.results},
             "band_coverage": {
                 split: _spread(

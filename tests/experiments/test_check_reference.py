@@ -86,3 +86,42 @@ def test_every_record_has_three_seeds_and_a_choices_hash(benchmark_script):
     for system, record in check.REFERENCE.items():
         assert set(record["chosen"]) == set(record["cv_rmse"]) == {"0", "1", "2"}
         assert len(record["choices_sha256"]) == 64, system
+
+
+def test_a_record_without_the_stack_compares_the_family_without_it(
+    benchmark_script, tmp_path
+):
+    # A run whose stack won: the check of a record made before the family had
+    # a stack hashes and chooses among the other models, as that run did.
+    check = benchmark_script("check_measured_reference.py")
+
+    def write(out, with_stack):
+        out.mkdir()
+        validation = {"physics": 1.0, "ARX": 2.0}
+        models = {"physics": {"n": 1}, "ARX": {"n": 2}}
+        chosen = "physics"
+        if with_stack:
+            validation["stacked"], models["stacked"] = 0.5, {"weights": {}}
+            chosen = "stacked"
+        seed = {"models": models, "validation_rmse": validation, "chosen_model": chosen}
+        sealed = {"system": {"name": "emps"}, "seeds": [seed], "provenance": {}}
+        (out / "selection.json").write_text(json.dumps({"selection": sealed}))
+        cv = {m: {"mean": v} for m, v in validation.items()}
+        results = {
+            "chosen_model": {"0": chosen},
+            "cv_rmse": {"0": cv},
+            "stack_weights": {"physics": 0.7, "ARX": 0.3} if with_stack else {},
+        }
+        (out / "results.json").write_text(json.dumps({"systems": {"emps": results}}))
+
+    write(before := tmp_path / "before", with_stack=False)
+    write(after := tmp_path / "after", with_stack=True)
+    assert check.selection(after, "emps", record_stack=False) == check.selection(
+        before, "emps", record_stack=False
+    )
+    assert check.selection(after, "emps", record_stack=False)[0] == {"0": "physics"}
+    assert check.selection(after, "emps")[0] == {"0": "stacked"}
+    assert check.choices_sha256(after) != check.choices_sha256(before)
+    (line,) = check.stack_lines(after, "emps")
+    assert "stack CV RMSE 0.5 (chosen; weights physics 0.7, ARX 0.3)" in line
+    assert check.stack_lines(before, "emps") == []

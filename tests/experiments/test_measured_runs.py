@@ -515,6 +515,7 @@ def test_cascaded_tanks_quick_run_on_the_real_files(shared_data_dir, tmp_path):
         "physics + dense",
         "physics + dense ensemble",
         "state-space hybrid",
+        "stacked",
     }
     assert set(summary["test_rmse"]["test"]) == models
     # The original protocol: defined for the physics, its corrections and the

@@ -34,6 +34,7 @@ def _folder(tmp_path):
         },
         "selection_sha256": "ab" * 32,
         "wall_time_s": 90.0,
+        "stack_weights": {"physics": 0.25, "physics + dense": 0.75, "ARX": 0.0},
     }
     (tmp_path / "results.json").write_text(
         json.dumps({"systems": {"toy": system}}), encoding="utf-8"
@@ -57,3 +58,4 @@ def test_release_table_prints_the_chosen_model_and_every_model(
     assert cells[7] == "1.5 min"
     assert "| physics + dense (chosen) | 0.3 ± 0.05 (2 folds) | 0.33 ± 0.01 |" in out
     assert "| physics | 0.4 ± 0.1 (2 folds) | 0.45 (the same at every seed) |" in out
+    assert "The stack's weights: physics 0.250, physics + dense 0.750" in out

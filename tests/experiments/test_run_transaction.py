@@ -24,6 +24,7 @@ import pytest
 
 import skhybrid.domain
 import skhybrid.hybrid
+import skhybrid.model_selection
 from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import RefusedTestRecordsError
 from skhybrid.experiments import SystemSpec, load_fitted, run_system
@@ -205,8 +206,13 @@ def test_a_physics_defined_in_main_loads_in_a_new_session_and_the_seal_repeats(
         if expected is not None:
             assert rmse == pytest.approx(expected, rel=1e-6), name
     # A spec with physics_inputs: every model loads as a public estimator (the
-    # physics and its corrections' physics in a TransformedInputSimulator).
-    public = set(skhybrid.domain.__all__) | set(skhybrid.hybrid.__all__)
+    # physics and its corrections' physics in a TransformedInputSimulator, the
+    # stack a StackedSimulation of them).
+    public = (
+        set(skhybrid.domain.__all__)
+        | set(skhybrid.hybrid.__all__)
+        | set(skhybrid.model_selection.__all__)
+    )
     assert set(loaded["types"].values()) <= public, loaded["types"]
     assert loaded["types"]["physics"] == "TransformedInputSimulator"
 

@@ -149,9 +149,11 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
         "physics + dense ensemble",
         "state-space hybrid",
     }
+    family = models | {"stacked"}
     assert summary["seeds"] == [0, 1, 2]
     # Every model is searched once, at the first seed; the other seeds refit
-    # its choice with their own networks' seed.
+    # its choice with their own networks' seed. The stack searches nothing: it
+    # averages the others' runs.
     assert searches == [0] * len(models)
     assert summary["searched_at_seed"] == 0
     for seed in ("1", "2"):
@@ -164,7 +166,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
     assert len(set(dense)) == 3  # a network refitted at each seed
     for seed, chosen in summary["chosen_model"].items():
         validation = summary["validation_rmse"][seed]
-        assert set(validation) == models
+        assert set(validation) == family
         assert chosen == min(validation, key=validation.get)
         frozen = sealed["selection"]["seeds"][int(seed)]
         assert frozen["chosen_model"] == chosen
@@ -184,7 +186,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
     assert summary["physics_params"]["0"]["k"] > 0
 
     rows = (out / "results.csv").read_text().splitlines()
-    assert len(rows) == 1 + 3 * len(models)
+    assert len(rows) == 1 + 3 * len(family)
 
     # The stochastic part of the chosen model, at every seed: residual tests on
     # the validation tails and the test record, the noise model fitted on the
@@ -200,7 +202,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
     # Every model's CV RMSE by fold at every seed, the mean the choice used, and
     # what the chosen model's test is against it.
     for seed, cv in summary["cv_rmse"].items():
-        assert set(cv) == models
+        assert set(cv) == family
         for name, entry in cv.items():
             assert entry["mean"] == pytest.approx(np.mean(entry["by_fold"]))
             assert entry["mean"] == pytest.approx(
@@ -215,6 +217,20 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
         summary["deterministic"]
     )
 
+    # The stack: the first seed's weights (fitted on the models' out-of-fold
+    # runs) average each seed's own refitted models; its test free run is that
+    # average of theirs.
+    weights = summary["fits"]["0"]["stacked"]["selection"]["weights"]
+    assert set(weights) <= models and sum(weights.values()) == pytest.approx(1.0)
+    assert summary["stack_weights"] == weights
+    for seed in ("0", "1", "2"):
+        assert summary["fits"][seed]["stacked"]["selection"]["weights"] == weights
+        stored = np.load(
+            out / "models" / f"toy-machine-seed-{seed}" / "test-predictions.npz"
+        )
+        average = sum(w * stored[f"test/{m}"] for m, w in weights.items())
+        np.testing.assert_allclose(stored["test/stacked"], average, rtol=1e-10)
+
     # The report speaks of this machine and this run, not of benchmarks or seed 0.
     page = (out / "report.html").read_text()
     assert "<title>skhybrid: toy-machine</title>" in page
@@ -227,6 +243,7 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
     assert "The stochastic part of the chosen model" in page
     assert "(deterministic)" in page and "test / CV" in page
     assert "band coverage" in page
+    assert "The stack (<code>stacked</code>) averages" in page
 
 
 def test_the_cli_runs_the_same_spec_by_module_and_object(machine, tmp_path, capsys):
@@ -441,6 +458,18 @@ def test_the_original_protocol_runs_the_state_space_hybrid_from_that_state(
     np.testing.assert_allclose(_from_estimation_start(hybrid, u, u0, y0, 10), expected)
     rmse = np.sqrt(np.mean((expected - y[:, 0]) ** 2))
     assert scores["state-space hybrid"]["mean"] == pytest.approx(rmse)
+    # The stack's: its members' runs from that state, averaged with its weights;
+    # defined where every member with a weight is.
+    stack = joblib.load(folder / "stacked.joblib")
+    members = [
+        w * _from_estimation_start(m, u, u0, y0, 10)
+        for w, m in zip(stack.weights_, stack.estimators_, strict=True)
+    ]
+    np.testing.assert_allclose(
+        _from_estimation_start(stack, u, u0, y0, 10), np.sum(members, axis=0)
+    )
+    defined = all(np.all(np.isfinite(run)) for run in members)
+    assert (scores["stacked"]["mean"] is not None) == defined
 
 
 def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
@@ -513,13 +542,15 @@ def test_load_fitted_gives_the_models_the_run_scored(machine, tmp_path):
     from skhybrid.domain import StateSpaceModel
 
     assert type(physics) is StateSpaceModel
-    # Every model of the family is a public estimator of skhybrid.
+    # Every model of the family is a public estimator of skhybrid (the stack a
+    # StackedSimulation of the others).
     import skhybrid.domain
     import skhybrid.hybrid
+    import skhybrid.model_selection
 
     public = {
         getattr(module, name)
-        for module in (skhybrid.domain, skhybrid.hybrid)
+        for module in (skhybrid.domain, skhybrid.hybrid, skhybrid.model_selection)
         for name in module.__all__
     }
     for name in summary["test_rmse"]["test"]:

@@ -32,8 +32,8 @@ import importlib
 _LAZY = {
     "MEASURED_SYSTEMS": "_registry",
     "SystemSpec": "_spec",
-    "load_fitted": "_measured",
-    "run_system": "_measured",
+    "load_fitted": "_run_system",
+    "run_system": "_run_system",
     "SYSTEMS": "_registry",
     "ExperimentResult": "_simulated",
     "ExperimentSettings": "_settings",
@@ -42,7 +42,7 @@ _LAZY = {
     "hybrid_settings": "_spec",
     "model_zoo": "_zoo",
     "run_experiment": "_runner",
-    "run_measured": "_measured",
+    "run_measured": "_run_system",
     "write_report": "_report",
 }
 

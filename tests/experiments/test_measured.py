@@ -17,7 +17,7 @@ from skhybrid.benchmarks.silverbox import physics as silverbox_physics
 from skhybrid.cli import main
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 from skhybrid.experiments._fitting import fit_segments
-from skhybrid.experiments._measured import run_measured
+from skhybrid.experiments._run_system import run_measured
 from skhybrid.experiments._measured_zoo import _records, _rmse
 from skhybrid.hybrid._correction import _windows
 

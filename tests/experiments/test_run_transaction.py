@@ -430,13 +430,13 @@ def test_bad_arguments_are_refused_before_the_folder(tmp_path, kwargs, error, wo
 def test_an_int_is_one_seed_and_none_the_default_seeds(
     tmp_path, monkeypatch, seeds, expected
 ):
-    from skhybrid.experiments import _measured
+    from skhybrid.experiments import _run_system
 
     seen = {}
 
     def capture(plan, command, out, **kwargs):
         seen["seeds"] = plan.seeds
 
-    monkeypatch.setattr(_measured, "_run_folder", capture)
+    monkeypatch.setattr(_run_system, "_run_folder", capture)
     run_system(make_spec(), tmp_path / "run", seeds=seeds, n_jobs=1)
     assert seen["seeds"] == expected

@@ -115,11 +115,17 @@ def choose_stack(model, ctx, deps, *, n_splits):
             "searched_at_seed": int(ctx.searched["seed"]),
         }
         weights = selection.get("weights")
-        if not weights or any(
-            deps.get(name, {}).get("model") is None
+        if not weights:
+            return None, selection, None
+        missing = [
+            name
             for name, w in weights.items()
-            if w > 0
-        ):
+            if w > 0 and deps.get(name, {}).get("model") is None
+        ]
+        if missing:
+            selection["failed"] = (
+                f"{', '.join(missing)}, averaged with a weight, failed at this seed"
+            )
             return None, selection, None
         selection["deterministic"] = _deterministic(deps, weights)
         return _stack(deps, weights), selection, ctx.searched["runs"]

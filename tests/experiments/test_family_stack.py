@@ -185,3 +185,18 @@ def test_the_stack_is_the_family_s_last_model_and_requires_every_other():
     assert list(models)[-1] == STACK
     assert models[STACK].requires == tuple(list(models)[:-1])
     assert models[STACK].choose is not None
+
+
+def test_a_later_seed_whose_member_failed_has_no_stack_and_says_why():
+    U, Y = _records()
+    targets = _targets(U, Y)
+    deps = {name: _dep(r) for name, r in _members(targets).items()}
+    _, selection, runs = choose_stack(_model(), _context(U, Y), deps, n_splits=N_SPLITS)
+    weighted = next(m for m, w in selection["weights"].items() if w > 0)
+    deps[weighted]["model"] = None
+    searched = {"selection": selection, "runs": runs, "seed": 0}
+    fitted, again, _ = choose_stack(
+        _model(), _context(U, Y, searched=searched), deps, n_splits=N_SPLITS
+    )
+    assert fitted is None
+    assert again["failed"] == f"{weighted}, averaged with a weight, failed at this seed"

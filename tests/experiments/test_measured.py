@@ -17,8 +17,8 @@ from skhybrid.benchmarks.silverbox import physics as silverbox_physics
 from skhybrid.cli import main
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 from skhybrid.experiments._fitting import fit_segments
-from skhybrid.experiments._run_system import run_measured
 from skhybrid.experiments._measured_zoo import _records, _rmse
+from skhybrid.experiments._run_system import run_measured
 from skhybrid.hybrid._correction import _windows
 
 TRUTH = {"M": 95.0, "Fv_pos": 167.0, "Fv_neg": 240.0, "Fc_pos": 20.0, "Fc_neg": 21.0}

@@ -246,7 +246,9 @@ def stack_lines(out, system):
         lines.append(
             f"-    {system} seed {seed}: stack CV RMSE {entry['mean']:.4g} "
             f"({'chosen' if quoted else 'not chosen'}; weights "
-            + ", ".join(f"{m} {w:.3g}" for m, w in results["stack_weights"].items())
+            + ", ".join(
+                f"{m} {w:.3g}" for m, w in results["stack_weights"].items() if w > 0
+            )
             + ")"
         )
     return lines

@@ -14,8 +14,12 @@ fold.
 
 import numpy as np
 
-from skhybrid.model_selection import RecordBlockSplit, StackedSimulation, take_pieces
-from skhybrid.model_selection._stacking import _cross_fitted_weights
+from skhybrid.model_selection import (
+    RecordBlockSplit,
+    StackedSimulation,
+    _cross_fitted_weights,
+    take_pieces,
+)
 
 __all__ = ["STACK", "choose_stack"]
 

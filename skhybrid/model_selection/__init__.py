@@ -26,6 +26,12 @@ from skhybrid.model_selection._split import (
 )
 from skhybrid.model_selection._stacking import StackedSimulation
 
+# For the measured family's stack (skhybrid.experiments), kept out of __all__:
+# the weights of each fold fitted on the other folds' out-of-fold runs.
+from skhybrid.model_selection._stacking import (
+    _cross_fitted_weights as _cross_fitted_weights,
+)
+
 __all__ = [
     "ConvexHullSplit",
     "ConvexHullSplitDisplay",

@@ -21,7 +21,7 @@ from skhybrid.model_selection import (
     take_pieces,
 )
 
-__all__ = ["STACK", "choose_stack"]
+__all__ = ["STACK", "averaged_run", "choose_stack"]
 
 #: The stack's name in the family.
 STACK = "stacked"
@@ -174,3 +174,39 @@ def choose_stack(model, ctx, deps, *, n_splits):
         deterministic=_deterministic(deps, weights),
     )
     return _stack(deps, weights), selection, runs
+
+
+def averaged_run(stack, runs, errors):
+    """The stack's free run of a record from its members' runs of it.
+
+    The same numbers as ``stack.simulate`` (the same products and sums, in the
+    same order), without simulating every member a second time.
+
+    Parameters
+    ----------
+    stack : StackedSimulation
+        The fitted stack.
+    runs : dict of str to ndarray
+        Each member's free run of the record, flattened.
+    errors : dict of str to str
+        Why a member's free run failed, by member.
+
+    Returns
+    -------
+    run : ndarray or None
+        The weighted average, flattened; None where a member with a weight has
+        no run of the record.
+    error : str or None
+        Why it failed: the first failed member's reason.
+    """
+    total, error = 0.0, None
+    for (name, _), w in zip(stack.estimators, stack.weights_, strict=True):
+        if w == 0:
+            continue
+        if name not in runs:
+            return None, None
+        run = np.asarray(runs[name], dtype=float)
+        total = total + w * run.reshape(len(run), -1)
+        if error is None and errors.get(name):
+            error = f"{name}'s free run failed: {errors[name]}"
+    return np.ravel(total), error

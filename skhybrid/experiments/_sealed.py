@@ -23,7 +23,7 @@ from skhybrid.experiments._measured_report import (
     measured_figure,
     measured_section,
 )
-from skhybrid.experiments._measured_stack import STACK
+from skhybrid.experiments._measured_stack import STACK, averaged_run
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
@@ -163,12 +163,23 @@ def score_tests(result, tests, folder=None):
     result.tests = dict(tests)
     result.predictions = {split: {} for split in tests}
     for split, (u, y) in tests.items():
+        errors = {}
         for model in result.fits:
             estimator = result.estimators.get(model)
             if estimator is None:
                 pred = np.full(len(y), np.nan)
             else:
-                (pred,), (error,) = simulate_records(estimator, [u], [y], result.n_init)
+                pred = None
+                if isinstance(estimator, StackedSimulation):
+                    # Its members ran already: their runs averaged, not rerun.
+                    pred, error = averaged_run(
+                        estimator, result.predictions[split], errors
+                    )
+                if pred is None:
+                    (pred,), (error,) = simulate_records(
+                        estimator, [u], [y], result.n_init
+                    )
+                errors[model] = error
                 if error is not None:
                     result.fits[model].setdefault("selection", {})
                     result.fits[model]["selection"]["diverged_on_" + split] = error

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from sklearn.base import BaseEstimator
 
-from skhybrid.experiments._measured_stack import STACK, choose_stack
+from skhybrid.experiments._measured_stack import STACK, averaged_run, choose_stack
 from skhybrid.experiments._measured_zoo import N_SPLITS, MeasuredContext, zoo
 from skhybrid.model_selection import RecordBlockSplit, StackedSimulation, take_pieces
 from skhybrid.model_selection._stacking import _simplex_weights
@@ -200,3 +200,33 @@ def test_a_later_seed_whose_member_failed_has_no_stack_and_says_why():
     )
     assert fitted is None
     assert again["failed"] == f"{weighted}, averaged with a weight, failed at this seed"
+
+
+class Wavy(BaseEstimator):
+    """A fitted stand-in whose free run is a fixed function of the inputs."""
+
+    def __init__(self, scale=1.0):
+        self.scale = scale
+
+    def simulate(self, inputs, initial):
+        return np.sin(self.scale * np.cumsum(inputs, axis=0))
+
+
+def test_the_averaged_run_is_the_stack_s_own_simulation_to_the_bit():
+    u = np.random.default_rng(3).normal(size=(300, 1))
+    members = [("a", Wavy(0.1)), ("b", Wavy(0.37)), ("c", Wavy(1.3))]
+    stack = StackedSimulation._from_fitted(members, [0.2, 0.0, 0.8])
+    runs = {name: np.ravel(m.simulate(u, None)) for name, m in members}
+    run, error = averaged_run(stack, runs, {})
+    np.testing.assert_array_equal(run, np.ravel(stack.simulate(u, None)))
+    assert error is None
+    # A member with no weight need not have run; one with a weight must.
+    del runs["b"]
+    assert averaged_run(stack, runs, {})[0] is not None
+    del runs["c"]
+    assert averaged_run(stack, runs, {}) == (None, None)
+    # A member whose free run failed fails the stack, with its reason.
+    runs = {"a": np.full(300, np.nan), "c": np.zeros(300)}
+    run, error = averaged_run(stack, runs, {"a": "diverged at step 7"})
+    assert np.all(np.isnan(run))
+    assert error == "a's free run failed: diverged at step 7"

@@ -18,7 +18,13 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
-from skhybrid.experiments import SystemSpec, _measured_search, _measured_zoo, run_system
+from skhybrid.experiments import (
+    SystemSpec,
+    _measured_search,
+    _measured_zoo,
+    load_fitted,
+    run_system,
+)
 
 MACHINE = textwrap.dedent(
     '''
@@ -230,6 +236,12 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
         )
         average = sum(w * stored[f"test/{m}"] for m, w in weights.items())
         np.testing.assert_allclose(stored["test/stacked"], average, rtol=1e-10)
+        # Averaged from its members' runs, the stack's own simulation exactly.
+        stack = load_fitted(out, seed=int(seed), model="stacked")
+        u, y = machine.record(400, 7)
+        np.testing.assert_array_equal(
+            stored["test/stacked"], np.ravel(stack.simulate(u, y[:10]))
+        )
 
     # The report speaks of this machine and this run, not of benchmarks or seed 0.
     page = (out / "report.html").read_text()

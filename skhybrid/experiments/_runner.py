@@ -13,7 +13,7 @@ import os
 import time
 
 import numpy as np
-from joblib import Parallel, parallel_config
+from joblib import Parallel, delayed, parallel_config
 from joblib.parallel import get_active_backend
 
 from skhybrid.experiments._progress import ProgressBars
@@ -21,7 +21,7 @@ from skhybrid.experiments._registry import get_system
 from skhybrid.experiments._simulated import ExperimentResult
 from skhybrid.experiments._store import VALIDATION_RUNS
 
-__all__ = ["ExperimentResult", "run_experiment"]
+__all__ = ["ExperimentResult", "fit_zoos", "run_experiment"]
 
 logger = logging.getLogger(__name__)
 
@@ -175,44 +175,144 @@ def run_experiment(
     system = get_system(system)
     if settings is None:
         settings = system.default_settings(quick, seed)
-    result = system.new_result(settings, data, searched=searched)
-    system = result.system  # a measured system bound to its spec
-    zoo = system.model_zoo(settings)
-    key = result.store_key
-    if folder is not None:
-        system.open_folder(result, folder)
-    done = {} if folder is None else folder.finished(key)
-    done = {name: record for name, record in done.items() if name in zoo}
-    for name, record in done.items():
-        result.restore(name, record, folder)
-
-    # The slowest fits (recurrent and state-space hybrids) first, so parallel
-    # workers finish together.
-    order = sorted(
-        zoo,
-        key=lambda name: (
-            "rnn" not in name,
-            "ensemble" not in name,
-            "hybrid" not in name,
-        ),
+    (result,) = fit_zoos(
+        system,
+        [settings],
+        n_jobs=n_jobs,
+        progress=progress,
+        folder=folder,
+        data=data,
+        searched=searched,
     )
-    todo = [name for name in order if name not in done]
-    stages = _stages(zoo, todo)
-    # The fits that models still to run require, as each finished or was stored.
-    needed = {dep for name in todo for dep in getattr(zoo[name], "requires", ())}
-    deps = {
-        name: _dependency(result, folder, name, record=done[name])
-        for name in needed
-        if name in done
-    }
+    result.wall_time = time.perf_counter() - start
+    return result
+
+
+class _SeedFit:
+    """One seed's zoo to fit: its result, the models left, and their stages."""
+
+    def __init__(self, system, settings, data, searched, folder):
+        result = system.new_result(settings, data, searched=searched)
+        self.result = result
+        self.system = system = result.system  # a measured system bound to its spec
+        self.settings = settings
+        self.zoo = zoo = system.model_zoo(settings)
+        key = result.store_key
+        if folder is not None:
+            system.open_folder(result, folder)
+        done = {} if folder is None else folder.finished(key)
+        done = {name: record for name, record in done.items() if name in zoo}
+        for name, record in done.items():
+            result.restore(name, record, folder)
+        self.n_done = len(done)
+        # The slowest fits (recurrent and state-space hybrids) first, so parallel
+        # workers finish together.
+        order = sorted(
+            zoo,
+            key=lambda name: (
+                "rnn" not in name,
+                "ensemble" not in name,
+                "hybrid" not in name,
+            ),
+        )
+        self.todo = [name for name in order if name not in done]
+        self.stages = _stages(zoo, self.todo)
+        # The fits that models still to run require, as each finished or was stored.
+        self.needed = {
+            dep for name in self.todo for dep in getattr(zoo[name], "requires", ())
+        }
+        self.deps = {
+            name: _dependency(result, folder, name, record=done[name])
+            for name in self.needed
+            if name in done
+        }
+
+    def job(self, name, sink, n_jobs, n_threads):
+        """The joblib call that fits ``name`` (its requirements' fits handed in)."""
+        needs = {k: self.deps[k] for k in getattr(self.zoo[name], "requires", ())}
+        return self.system.job(
+            name,
+            self.zoo[name],
+            self.result,
+            needs,
+            sink,
+            n_jobs=n_jobs,
+            n_threads=n_threads,
+        )
+
+    def record(self, name, out, folder):
+        """Keep a finished model: in the result, the folder, and for its dependants."""
+        _record(self.result, name, out, folder)
+        if name in self.needed:
+            self.deps[name] = _dependency(self.result, folder, name, out=out)
+
+    def finish(self):
+        """Order the fits as the zoo lists them and score what was predicted."""
+        result, zoo = self.result, self.zoo
+        # Keep the zoo's order (and the oracle first) whatever order fits finished in.
+        result.fits = {k: result.fits[k] for k in zoo if k in result.fits}
+        result.params = {k: result.params[k] for k in zoo if k in result.params}
+        for split in result.test_splits:
+            preds = result.predictions[split]
+            result.predictions[split] = {
+                k: preds[k] for k in ["oracle", *zoo] if k in preds
+            }
+        result.score()
+        return result
+
+
+def _tagged(index, call):
+    """Run a joblib call and return it with ``index`` (which seed it fitted)."""
+    func, args, kwargs = call
+    return index, func(*args, **kwargs)
+
+
+def fit_zoos(
+    system,
+    settings,
+    *,
+    n_jobs=1,
+    progress=False,
+    folder=None,
+    data=None,
+    searched=None,
+):
+    """Fit the zoo of a system at one or several seeds, in one pool of workers.
+
+    Each seed's models run in stages (a model after those it requires); the
+    stages of every seed run together. A measured system's search fits its
+    models one at a time, each model's (candidate, fold) fits on every worker.
+    Its refits at further seeds (``searched``: every choice made already) are
+    single fits, so they run side by side, as a simulated system's models do,
+    each with the threads a search's worker has: a refit computes the same
+    numbers whether it runs alone or beside another.
+
+    Parameters
+    ----------
+    system : System
+        The system (from :func:`~skhybrid.experiments._registry.get_system`).
+    settings : list of ExperimentSettings or MeasuredSettings
+        Each seed's settings.
+    n_jobs, progress, folder, data, searched
+        As :func:`run_experiment`'s.
+
+    Returns
+    -------
+    results : list of ExperimentResult or MeasuredResult
+        One per entry of ``settings``, in its order.
+    """
+    seeds = [_SeedFit(system, s, data, searched, folder) for s in settings]
+    system = seeds[0].system
     backend, _ = get_active_backend()
     client = _dask_client(backend)
     cores = os.cpu_count() or 1
-    # A system whose models each search over folds (a measured one) fits its
-    # models one at a time, each search running its (candidate, fold) fits on
-    # every worker: a long search never leaves a core idle. A simulated
-    # system's models are single fits, run side by side.
-    widest = max((len(stage) for stage in stages), default=1)
+    widest = max(
+        (
+            sum(len(fit.stages[i]) for fit in seeds if i < len(fit.stages))
+            for i in range(max(len(fit.stages) for fit in seeds))
+        ),
+        default=1,
+    )
     if n_jobs in (-1, None):
         workers = -1 if client is not None else cores
     elif system.parallel_folds:
@@ -221,61 +321,53 @@ def run_experiment(
         workers = max(1, min(n_jobs, widest))
     n_threads = _threads_per_worker(client, cores, workers)
     model_workers, fold_workers = workers, 1
-    if system.parallel_folds:
+    # With workers, a fit in this process takes their threads; alone, it keeps
+    # this process's own.
+    job_threads = None
+    if system.parallel_folds and searched is None:
+        # Searches over folds: the models one at a time, each search running
+        # its (candidate, fold) fits on every worker, so a long search never
+        # leaves a core idle; its refit in this process as in a worker.
         model_workers, fold_workers = 1, workers
+        job_threads = n_threads if workers != 1 else None
+    elif system.parallel_folds and workers != 1:
+        # Refits only: side by side, each as a search's worker computes.
+        job_threads = n_threads
     bars = None
     if progress:
-        budget = system.epochs_at_most({name: zoo[name] for name in todo}, result)
+        budget = sum(
+            system.epochs_at_most({n: fit.zoo[n] for n in fit.todo}, fit.result) or 0
+            for fit in seeds
+        )
         bars = ProgressBars(
-            len(zoo),
-            system.progress_label(settings),
+            sum(len(fit.zoo) for fit in seeds),
+            "; ".join(system.progress_label(fit.settings) for fit in seeds),
             client=client,
-            n_done=len(done),
+            n_done=sum(fit.n_done for fit in seeds),
             n_epochs=budget or None,
         )
     sink = None if bars is None else bars.sink
 
     def jobs(stage):
-        for name in stage:
-            needs = {k: deps[k] for k in getattr(zoo[name], "requires", ())}
-            yield system.job(
-                name,
-                zoo[name],
-                result,
-                needs,
-                sink,
-                n_jobs=fold_workers,
-                # With workers, a refit in this process takes their threads;
-                # alone, it keeps this process's own.
-                n_threads=n_threads if fold_workers != 1 else None,
-            )
+        for index, fit in enumerate(seeds):
+            for name in fit.stages[stage] if stage < len(fit.stages) else ():
+                call = fit.job(name, sink, fold_workers, job_threads)
+                yield delayed(_tagged)(index, call)
 
     try:
-        for stage in stages:
+        for stage in range(max(len(fit.stages) for fit in seeds)):
             with _local_threads(backend, n_threads):
                 outputs = Parallel(
                     n_jobs=model_workers, return_as="generator_unordered"
                 )(jobs(stage))
-                for name, out in outputs:
-                    _record(result, name, out, folder)
-                    if name in needed:
-                        deps[name] = _dependency(result, folder, name, out=out)
+                for index, (name, out) in outputs:
+                    seeds[index].record(name, out, folder)
                     if bars is not None:
                         bars.model_done(name, out["fit_time"], out["n_epochs"])
     finally:
         if bars is not None:
             bars.close()
-    # Keep the zoo's order (and the oracle first) whatever order fits finished in.
-    result.fits = {k: result.fits[k] for k in zoo if k in result.fits}
-    result.params = {k: result.params[k] for k in zoo if k in result.params}
-    for split in result.test_splits:
-        preds = result.predictions[split]
-        result.predictions[split] = {
-            k: preds[k] for k in ["oracle", *zoo] if k in preds
-        }
-    result.score()
-    result.wall_time = time.perf_counter() - start
-    return result
+    return [fit.finish() for fit in seeds]
 
 
 def _record(result, name, out, folder):

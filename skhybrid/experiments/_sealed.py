@@ -26,7 +26,8 @@ from skhybrid.experiments._measured_report import (
 from skhybrid.experiments._measured_stack import STACK, averaged_run
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._runner import run_experiment
+from skhybrid.experiments._registry import get_system
+from skhybrid.experiments._runner import fit_zoos, run_experiment
 from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._stochastic import (
     BAND_LEVEL,
@@ -35,6 +36,7 @@ from skhybrid.experiments._stochastic import (
     residual_tests,
 )
 from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
+from skhybrid.experiments._test_runs import simulate_tests
 from skhybrid.model_selection import StackedSimulation
 
 __all__ = [
@@ -147,8 +149,8 @@ def seal(results, folder_path):
     return sealed
 
 
-def score_tests(result, tests, folder=None):
-    """Simulate every fitted model of one seed on the test records.
+def score_tests(result, tests, folder=None, runs=None):
+    """Score every fitted model of one seed on the test records.
 
     Parameters
     ----------
@@ -159,11 +161,16 @@ def score_tests(result, tests, folder=None):
     folder : RunFolder or None, default=None
         Where the free runs are kept (``models/<system>-seed-<S>/
         test-predictions.npz``, keys ``<test>/<model>``).
+    runs : dict or None, default=None
+        The models' free runs of the test records, as
+        :func:`~skhybrid.experiments._test_runs.simulate_tests` gives them for
+        this seed; None simulates them here.
     """
     result.tests = dict(tests)
     result.predictions = {split: {} for split in tests}
     for split, (u, y) in tests.items():
         errors = {}
+        given = {} if runs is None else runs[split]
         for model in result.fits:
             estimator = result.estimators.get(model)
             if estimator is None:
@@ -175,6 +182,8 @@ def score_tests(result, tests, folder=None):
                     pred, error = averaged_run(
                         estimator, result.predictions[split], errors
                     )
+                elif model in given:
+                    pred, error = given[model]
                 if pred is None:
                     (pred,), (error,) = simulate_records(
                         estimator, [u], [y], result.n_init
@@ -703,23 +712,37 @@ def run_seeds(
     Every model's search (each candidate on every fold) runs at the first seed,
     fold ``k``'s networks at ``seeds[0] + k``; each further seed refits the
     chosen candidate on the whole records at its own seed. The spread over
-    seeds is the refits' spread; the CV figures are the one search's.
+    seeds is the refits' spread; the CV figures are the one search's. The
+    further seeds' refits run side by side on ``n_jobs`` workers (each with
+    the threads of a search's worker, so a refit's numbers do not depend on
+    what runs beside it); each of their results' ``wall_time`` is the time
+    they took together.
     """
     start = time.perf_counter()
-    results, searched = [], None
-    for seed in seeds:
-        result = run_experiment(
-            system,
-            settings=system.default_settings(quick, seed),
+    seeds = list(seeds)
+    first = run_experiment(
+        system,
+        settings=system.default_settings(quick, seeds[0]),
+        n_jobs=n_jobs,
+        progress=progress,
+        folder=folder,
+        data=data,
+    )
+    results = [first]
+    if len(seeds) > 1:
+        # The further seeds' refits, side by side in one pool of workers.
+        refit_start = time.perf_counter()
+        results += fit_zoos(
+            get_system(system),
+            [system.default_settings(quick, seed) for seed in seeds[1:]],
             n_jobs=n_jobs,
             progress=progress,
             folder=folder,
             data=data,
-            searched=searched,
+            searched=first_searches(first),
         )
-        results.append(result)
-        if searched is None:
-            searched = first_searches(result)
+        for result in results[1:]:
+            result.wall_time = time.perf_counter() - refit_start
     sealed = seal(results, None if folder is None else folder.path)
     # The first read of the test records: after the selection file is written.
     # Checked against the estimation records before any model is simulated.
@@ -731,8 +754,9 @@ def run_seeds(
             f"{exc} The selection is sealed{where}: fix the test records, then "
             "run the same command with --resume (resume=True) to score it."
         ) from exc
-    for result in results:
-        score_tests(result, tests, folder)
+    runs = simulate_tests(results, tests, n_jobs=n_jobs)
+    for result, seed_runs in zip(results, runs, strict=True):
+        score_tests(result, tests, folder, runs=seed_runs)
     run = MeasuredRun(results, sealed)
     run.wall_time = time.perf_counter() - start
     return run

@@ -5,6 +5,8 @@ through the same steps, calling the system's hooks (``default_settings``,
 ``new_result``, ``model_zoo``, ``job``, ``epochs_at_most``): restore the models
 an earlier run finished, fit the others in stages (a model after the models it
 requires), write each to the run folder as it finishes, and score.
+:func:`fit_zoos` does it for several seeds at once, in one pool of workers (a
+measured run's further seeds, which only refit).
 """
 
 import contextlib

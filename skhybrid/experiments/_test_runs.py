@@ -12,8 +12,10 @@ simulated here.
 """
 
 import contextlib
+import hashlib
+import pickle
 
-import joblib
+import cloudpickle
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_info, threadpool_limits
 
@@ -27,12 +29,19 @@ def _identity(result, model):
     """What names a seed's fit of ``model``: equal only for the same fitted model.
 
     A deterministic model's fit is the same at every seed; its key is then the
-    hash of its fitted state, so two seeds share its runs only where the fits
-    are equal to the bit. Any other model is its seed's own.
+    SHA-256 of its pickled state, so two seeds share its runs only where the
+    fits are equal to the bit (a model that cannot be pickled is not shared).
+    Any other model is its seed's own.
     """
     selection = result.fits[model].get("selection") or {}
     if selection.get("deterministic"):
-        return ("deterministic", model, joblib.hash(result.estimators[model]))
+        # cloudpickle, as the run folder stores a model: a physics written in
+        # the user's script (``__main__``) goes by value, where pickle fails.
+        try:
+            state = cloudpickle.dumps(result.estimators[model])
+        except (pickle.PicklingError, TypeError, AttributeError):
+            return ("seed", result.store_key, model)  # not shared: run each
+        return ("deterministic", model, hashlib.sha256(state).hexdigest())
     return ("seed", result.store_key, model)
 
 

@@ -191,6 +191,30 @@ def test_deterministic_fits_that_differ_are_simulated_each():
     assert np.all(first[2:] == 1.0) and np.all(second[2:] == 2.0)
 
 
+class _WithFunction(_Counted):
+    """A model that holds a function, as a physics holds its equations."""
+
+    def __init__(self, offset, rhs):
+        super().__init__(offset)
+        self.rhs = rhs
+
+
+def test_a_deterministic_fit_with_a_function_from_the_users_script_is_shared():
+    # A function of the script that ran (``__main__``), where pickle looks it up
+    # by name and finds another object (or none): pickle refuses it.
+    def rhs(x):
+        return x
+
+    rhs.__module__, rhs.__qualname__ = "__main__", "rhs_not_in_main"
+    physics = _WithFunction(1.0, rhs)
+    results = [
+        _Result(s, {"physics": physics}, deterministic={"physics"}) for s in (0, 1)
+    ]
+    runs = simulate_tests(results, {"t": (np.zeros((9, 1)), np.zeros((9, 1)))})
+    first, second = (r["t"]["physics"][0] for r in runs)
+    assert first is second and np.all(first[2:] == 1.0)
+
+
 def test_a_failed_free_run_is_named_and_nan():
     class Diverges:
         def simulate(self, inputs, initial):

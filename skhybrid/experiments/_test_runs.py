@@ -16,6 +16,7 @@ import hashlib
 import pickle
 
 import cloudpickle
+import joblib
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_info, threadpool_limits
 
@@ -28,21 +29,35 @@ __all__ = ["simulate_tests"]
 def _identity(result, model):
     """What names a seed's fit of ``model``: equal only for the same fitted model.
 
-    A deterministic model's fit is the same at every seed; its key is then the
-    SHA-256 of its pickled state, so two seeds share its runs only where the
-    fits are equal to the bit (a model that cannot be pickled is not shared).
-    Any other model is its seed's own.
+    A deterministic model's fit is the same at every seed; its key is then a
+    hash of its fitted state (:func:`_fingerprint`), so two seeds share its
+    runs only where the fits are equal to the bit (a model that cannot be
+    pickled is not shared). Any other model is its seed's own.
     """
     selection = result.fits[model].get("selection") or {}
     if selection.get("deterministic"):
-        # cloudpickle, as the run folder stores a model: a physics written in
-        # the user's script (``__main__``) goes by value, where pickle fails.
-        try:
-            state = cloudpickle.dumps(result.estimators[model])
-        except (pickle.PicklingError, TypeError, AttributeError):
-            return ("seed", result.store_key, model)  # not shared: run each
-        return ("deterministic", model, hashlib.sha256(state).hexdigest())
+        fingerprint = _fingerprint(result.estimators[model])
+        if fingerprint is not None:
+            return ("deterministic", model, fingerprint)
     return ("seed", result.store_key, model)
+
+
+def _fingerprint(estimator):
+    """A hash of ``estimator``'s fitted state, or None where it cannot be pickled.
+
+    joblib's hash, which two equal fits share whatever objects they share
+    inside; for a physics written in the user's script (``__main__``), which
+    pickle refuses, the SHA-256 of its cloudpickle (as the run folder stores
+    it), which goes by value.
+    """
+    try:
+        return joblib.hash(estimator)
+    except (pickle.PicklingError, TypeError, AttributeError):
+        pass
+    try:
+        return hashlib.sha256(cloudpickle.dumps(estimator)).hexdigest()
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return None
 
 
 def _threads_here():

@@ -14,6 +14,7 @@ simulated here.
 import contextlib
 import hashlib
 import pickle
+import warnings
 
 import cloudpickle
 import joblib
@@ -51,7 +52,11 @@ def _fingerprint(estimator):
     it), which goes by value.
     """
     try:
-        return joblib.hash(estimator)
+        with warnings.catch_warnings():
+            # pickle's lookup of a function in ``__main__`` warns on the way
+            # to refusing it (importlib's module_repr, on Python 3.11).
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return joblib.hash(estimator)
     except (pickle.PicklingError, TypeError, AttributeError):
         pass
     try:

@@ -839,10 +839,9 @@ def hybrid_settings(horizon, hidden, **extra):
 
     The training settings are those of
     :class:`~skhybrid.hybrid.StateSpaceHybridRegressor`'s defaults (chosen on
-    ``benchmarks/bench_state_space_defaults.py``), with at most 200 epochs: on
-    the coupled drives' validation tails they gave 0.130 (seed 0) against
-    0.164 for the family's earlier short training (``lr=3e-3``,
-    ``batch_size=64``, 40 epochs, ``patience=5``), in 47 s per fit.
+    ``benchmarks/bench_state_space_defaults.py``), with at most 200 epochs,
+    chosen on validation only (the benchmark log, ``benchmarks/LOG.md``, has
+    the figures).
 
     Parameters
     ----------

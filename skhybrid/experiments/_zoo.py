@@ -82,8 +82,8 @@ def model_zoo(system, settings):
         "linear", LinearStateSpaceModel(n_steps=s.n_steps), stage_input="window"
     )
     zoo["physics+dense"] = boost("dense", dense(4, "shared"))
-    # The recurrent residual stages learn at lr 0.003: on the pendulum's training
-    # rows (seed 0) it gave a lower validation loss than 0.01 (0.00256 vs 0.00287).
+    # The recurrent residual stages learn at lr 0.003, chosen on a validation
+    # loss (docs/experiments.md, "How the settings were chosen").
     zoo["physics+rnn (mse)"] = boost("rnn", rnn(5, "mse", "shared", 0.003))
     # The Ljung-Box stage is the MSE stage fine-tuned: it trains on the MSE
     # first (the same network, seed and batches as the MSE stage), then goes on

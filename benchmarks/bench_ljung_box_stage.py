@@ -39,9 +39,8 @@ import torch
 from scipy.stats import chi2
 from sklearn.base import clone
 
-from skhybrid.experiments import ExperimentSettings
+from skhybrid.experiments import RunSettings, model_zoo
 from skhybrid.experiments._registry import SYSTEMS
-from skhybrid.experiments._zoo import model_zoo
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.losses import ljung_box
 
@@ -98,8 +97,8 @@ def main():
     torch.set_num_threads(int(os.environ.get("OMP_NUM_THREADS", "1")))
 
     system = SYSTEMS[args.system]
-    make = ExperimentSettings.quick if args.quick else ExperimentSettings.full
-    s = make(seed=args.seed)
+    s = RunSettings(quick=args.quick, seed=args.seed)
+    lags = system.sizes(s).lags
     tag = f"{args.system}_s{args.seed}{'_quick' if args.quick else ''}"
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
@@ -110,8 +109,8 @@ def main():
     template = zoo["physics+rnn (mse)"]
     booster = HybridBoostingRegressor(
         [template.stages[0]],
-        n_steps=s.n_steps,
-        ljung_box_lags=s.lags,
+        n_steps=system.n_steps,
+        ljung_box_lags=lags,
         random_state=s.seed,
     )
     start = time.perf_counter()
@@ -121,7 +120,7 @@ def main():
     Z, target, _ = stage_data(booster, train.X, train.y)
     Zt, _, phys_test = stage_data(booster, test.X, test.y)
     names = list(train.target_names)
-    oracle = scores(test.y, np.asarray(test.oracle), s.lags)
+    oracle = scores(test.y, np.asarray(test.oracle), lags)
 
     results = {}
     for spec in args.variants:
@@ -144,8 +143,8 @@ def main():
                 key: [row.get(key) for row in stage.history_]
                 for key in ("train_loss", "valid_loss", "event_lr")
             },
-            "val": scores(target[val_rows], pred_val, s.lags),
-            "test": scores(test.y, pred_test, s.lags),
+            "val": scores(target[val_rows], pred_val, lags),
+            "test": scores(test.y, pred_test, lags),
         }
         path.write_text(json.dumps(out))
         results[spec] = out
@@ -167,7 +166,7 @@ def main():
             )
         orc = np.array(out["test"]["rmse"]) / np.array(oracle["rmse"])
         line.append("test/oracle " + " ".join(f"{v:.2f}" for v in orc))
-        pvalue = chi2.sf(out["test"]["q"], s.lags)
+        pvalue = chi2.sf(out["test"]["q"], lags)
         noise = np.array(out["test"]["std"]) / system.noise
         line.append(
             "test p "

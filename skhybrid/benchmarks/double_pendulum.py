@@ -40,7 +40,7 @@ def claims(result):
     residual = (
         data.y - result.predictions["interpolation"]["physics+rnn (ljung-box)"]
     )[:, cols]
-    test = ljung_box_test(residual, result.settings.lags, alpha=0.01)
+    test = ljung_box_test(residual, result.sizes.lags, alpha=0.01)
     ratio = np.std(residual, axis=0) / np.asarray(data.noise)[cols]
     kind = getattr(data, "noise_type", "measurement")
     where = (

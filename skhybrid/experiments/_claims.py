@@ -19,14 +19,14 @@ def check_claims(result):
     Returns
     -------
     claims : list of dict
-        Keys ``claim``, ``passed`` (None where the settings are not the full
-        run's: the claims are not evaluated on quick settings) and ``detail``;
-        empty for a system that states none.
+        Keys ``claim``, ``passed`` (None on a ``--quick`` run: the claims are
+        not evaluated on quick settings) and ``detail``; empty for a system
+        that states none.
     """
     claims = result.system.claims(result)
     if not claims:
         return []
-    if not getattr(result.settings, "is_full", True):
+    if getattr(result.settings, "quick", False):
         # The claims are about the full run; on small data and few epochs a
         # "fails" would only say the settings are small.
         for item in claims:

@@ -9,7 +9,7 @@ selection is sealed, the test records' free runs.
 """
 
 import json
-from dataclasses import asdict, dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from joblib import delayed
@@ -28,59 +28,17 @@ from skhybrid.experiments._spec import SystemSpec, records_digest
 from skhybrid.experiments._store import VALIDATION_RUNS
 from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
-__all__ = ["MeasuredResult", "MeasuredSettings", "MeasuredSystem"]
+__all__ = ["MeasuredResult", "MeasuredSystem"]
 
 
 #: Most residual evaluations of a physics' fit in a quick run.
 QUICK_NFEV = 20
 
 
-@dataclass(frozen=True)
-class MeasuredSettings:
-    """What makes two runs of a measured benchmark the same.
-
-    Parameters
-    ----------
-    quick : bool, default=False
-        Shorter fits, fewer candidates (and a shorter Silverbox estimation
-        record).
-    seed : int, default=0
-        Seed of the networks.
-    """
-
-    quick: bool = False
-    seed: int = 0
-
-    def with_seed(self, seed):
-        """The same settings with another seed.
-
-        Parameters
-        ----------
-        seed : int
-            Seed of the networks.
-
-        Returns
-        -------
-        settings : MeasuredSettings
-            A copy with ``seed``.
-        """
-        return replace(self, seed=seed)
-
-    def to_dict(self):
-        """The settings as a JSON-ready dict.
-
-        Returns
-        -------
-        settings : dict
-            Every field.
-        """
-        return asdict(self)
-
-
 class MeasuredSystem:
     """A measured system in the pipeline: its :class:`SystemSpec`, the runner's hooks.
 
-    The runner calls :meth:`default_settings`, :meth:`new_result`,
+    The runner calls :meth:`new_result`,
     :meth:`model_zoo` and :meth:`job`; the zoo reads the physics and the
     candidates through the system. A user's system wraps a spec
     (:meth:`from_spec`); a built-in benchmark builds its spec from its files
@@ -261,23 +219,6 @@ class MeasuredSystem:
         return getattr(self._module, "PUBLISHED", {})
 
     # -- the runner's hooks ----------------------------------------------------
-    def default_settings(self, quick=False, seed=0):
-        """The run's settings.
-
-        Parameters
-        ----------
-        quick : bool, default=False
-            Shorter fits.
-        seed : int, default=0
-            Seed of the networks.
-
-        Returns
-        -------
-        settings : MeasuredSettings
-            ``quick`` and ``seed``.
-        """
-        return MeasuredSettings(quick=bool(quick), seed=int(seed))
-
     def store_key(self, settings):
         """The run folder's name for this system's models at ``settings``' seed."""
         return f"{self.name}-seed-{settings.seed}"
@@ -289,7 +230,7 @@ class MeasuredSystem:
 
         Parameters
         ----------
-        settings : MeasuredSettings
+        settings : RunSettings
             ``quick`` and ``seed``.
         data : str or Path or None, default=None
             A built-in benchmark's data folder; None fetches its files.
@@ -332,7 +273,7 @@ class MeasuredSystem:
 
         Parameters
         ----------
-        settings : MeasuredSettings
+        settings : RunSettings
             The run's settings (its seed).
 
         Returns
@@ -347,7 +288,7 @@ class MeasuredSystem:
 
         Parameters
         ----------
-        settings : MeasuredSettings
+        settings : RunSettings
             ``quick`` gives fewer candidates.
 
         Returns
@@ -440,7 +381,7 @@ class MeasuredResult:
     ----------
     system : MeasuredSystem
         The system, bound to its spec.
-    settings : MeasuredSettings
+    settings : RunSettings
         ``quick`` and ``seed``.
     train : tuple of list of ndarray
         The estimation records ``(U, Y)``.

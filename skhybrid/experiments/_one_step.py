@@ -4,30 +4,31 @@ A :class:`~skhybrid.experiments.SystemSpec` whose ``protocol`` is a
 :class:`~skhybrid.experiments.OneStepWindows` (the built-in pendulum, double
 pendulum and DC motor of :mod:`skhybrid.benchmarks`, or a user's) runs as a
 :class:`OneStepSystem`: its simulators give the splits at each seed, its physics
-the zoo's physics models. It answers the pipeline's hooks
+the family's physics models. It answers the pipeline's hooks
 (:func:`~skhybrid.experiments.run_experiment` calls the same ones on a
-free-run system): its default settings, a new result, its model zoo, the joblib
-call that fits one model, and the most epochs its networks can train.
+free-run system): a new result, its model zoo (:func:`model_zoo`, the
+protocol's family of models), the joblib call that fits one model, and the most
+epochs its networks can train.
 """
 
 import hashlib
 from dataclasses import fields as dataclass_fields
-from dataclasses import replace
 
 import numpy as np
 from joblib import delayed
 from sklearn.base import clone
 
+from skhybrid.domain import LinearStateSpaceModel
 from skhybrid.experiments._describe import canonical, describe
 from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT
 from skhybrid.experiments._progress import attach_epoch_logger, epoch_budget
 from skhybrid.experiments._protocol import OneStepWindows
-from skhybrid.experiments._settings import ExperimentSettings
 from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shares
 from skhybrid.experiments._spec import SystemSpec
-from skhybrid.experiments._zoo import model_zoo
+from skhybrid.hybrid import HybridBoostingRegressor, HybridEnsembleRegressor
+from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor
 
-__all__ = ["OneStepSystem"]
+__all__ = ["OneStepSystem", "model_zoo"]
 
 #: Offset of the validation episodes' seed from the run's (the test splits use
 #: 1000, 2000, ... in the spec's order).
@@ -62,6 +63,8 @@ class OneStepSystem:
         self.section = protocol.section
         self.default_noise_type = protocol.noise_type
         self.noise = protocol.noise
+        #: Time steps per row: the spec's window.
+        self.n_steps = spec.n_init
         labels = list(spec.physics) if isinstance(spec.physics, dict) else ["physics"]
         #: Label (in :meth:`physics`) of the physics used as first stage of hybrids.
         self.hybrid_physics = protocol.hybrid_physics or labels[0]
@@ -102,7 +105,7 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
+        settings : RunSettings
             Its ``noise_type``, or the system's default when that is None.
 
         Returns
@@ -118,7 +121,7 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
+        settings : RunSettings
             The run's seed.
         offset : int
             The split's offset (the catalogue's test splits use 1000 and 2000,
@@ -131,9 +134,47 @@ class OneStepSystem:
         """
         return (settings.seed + offset) % 2**32
 
+    def sizes(self, settings):
+        """The data sizes, networks and budget of a run with ``settings``.
+
+        Parameters
+        ----------
+        settings : RunSettings
+            Its ``quick``.
+
+        Returns
+        -------
+        sizes : OneStepSizes
+            The protocol's ``quick_sizes`` or ``sizes``.
+        """
+        return self.spec.protocol.sizes_for(settings.quick)
+
+    def settings_table(self, settings):
+        """What the report and ``results.json`` show of a run's settings.
+
+        Parameters
+        ----------
+        settings : RunSettings
+            The run's settings.
+
+        Returns
+        -------
+        table : dict
+            The sizes, the window's time steps, the seed and the noise type.
+        """
+        sizes = self.sizes(settings).to_dict()
+        first = {k: sizes.pop(k) for k in ("n_train", "n_test")}
+        return {
+            **first,
+            "n_steps": self.n_steps,
+            **sizes,
+            "seed": settings.seed,
+            "noise_type": settings.noise_type,
+        }
+
     def _common(self, settings):
         return {
-            "n_steps": settings.n_steps,
+            "n_steps": self.n_steps,
             "noise": self.noise,
             "noise_type": self.noise_type(settings),
         }
@@ -143,8 +184,8 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
-            Sizes and seed.
+        settings : RunSettings
+            The run's seed, and ``quick`` for the sizes.
 
         Returns
         -------
@@ -152,15 +193,15 @@ class OneStepSystem:
             ``{"train": Bunch, <test set>: Bunch, ...}``: the spec's ``records``
             at the run's seed, its ``tests`` at seeds 1000, 2000, ... away.
         """
-        common = self._common(settings)
+        common, sizes = self._common(settings), self.sizes(settings)
         splits = {
             "train": self.spec.records(
-                settings.n_train, random_state=settings.seed, **common
+                sizes.n_train, random_state=settings.seed, **common
             )
         }
         for k, (name, simulate) in enumerate(self.spec.tests.items(), start=1):
             seed = self.split_seed(settings, TEST_SEED_STEP * k)
-            splits[name] = simulate(settings.n_test, random_state=seed, **common)
+            splits[name] = simulate(sizes.n_test, random_state=seed, **common)
         return splits
 
     def physics(self, settings):
@@ -168,8 +209,8 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
-            Sizes and seed.
+        settings : RunSettings
+            The run's seed, and ``quick`` for the sizes.
 
         Returns
         -------
@@ -183,7 +224,7 @@ class OneStepSystem:
         for label, model in physics.items():
             model = clone(model)
             if "n_steps" in model.get_params(deep=False):
-                model.set_params(n_steps=settings.n_steps)
+                model.set_params(n_steps=self.n_steps)
             out[label] = model
         return out
 
@@ -212,8 +253,8 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
-            Sizes and seed.
+        settings : RunSettings
+            The run's seed, and ``quick`` for the sizes.
 
         Returns
         -------
@@ -221,9 +262,9 @@ class OneStepSystem:
             As a split of :meth:`make_splits`.
         """
         seed = self.split_seed(settings, VALIDATION_SEED)
-        return self.make_splits(replace(settings, seed=seed, n_train=settings.n_test))[
-            "train"
-        ]
+        return self.spec.records(
+            self.sizes(settings).n_test, random_state=seed, **self._common(settings)
+        )
 
     def split_descriptions(self):
         """What each split of the system holds, in words.
@@ -236,32 +277,13 @@ class OneStepSystem:
         return dict(self.spec.protocol.descriptions)
 
     # -- the pipeline's hooks ---------------------------------------------------
-    def default_settings(self, quick=False, seed=0):
-        """The run's settings: the full run's or ``--quick``'s, at ``seed``.
-
-        Parameters
-        ----------
-        quick : bool, default=False
-            Small data and few epochs.
-        seed : int, default=0
-            Seed of the data and the models.
-
-        Returns
-        -------
-        settings : ExperimentSettings
-            Sizes, architectures and seed; windows of the spec's ``n_init``
-            time steps.
-        """
-        make = ExperimentSettings.quick if quick else ExperimentSettings.full
-        return replace(make(seed), n_steps=self.spec.n_init)
-
     def new_result(self, settings, data=None, searched=None):
         """Simulate the splits and return an :class:`ExperimentResult` without models.
 
         Parameters
         ----------
-        settings : ExperimentSettings
-            Sizes and seed.
+        settings : RunSettings
+            The run's seed, and ``quick`` for the sizes.
         data : None
             Unused: a simulated system reads no files.
         searched : None
@@ -278,7 +300,7 @@ class OneStepSystem:
         result.validation = self.validation_split(settings)
         for split in result.test_splits:
             result.predictions[split]["oracle"] = np.asarray(splits[split].oracle)
-        result.hull = hull_shares(splits, settings.n_steps)
+        result.hull = hull_shares(splits, self.n_steps)
         return result
 
     def model_zoo(self, settings):
@@ -286,8 +308,8 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
-            Sizes, architectures and seed.
+        settings : RunSettings
+            The run's seed, and ``quick`` for the sizes.
 
         Returns
         -------
@@ -312,7 +334,7 @@ class OneStepSystem:
 
         Parameters
         ----------
-        settings : ExperimentSettings
+        settings : RunSettings
             The run's settings.
 
         Returns
@@ -374,3 +396,125 @@ class OneStepSystem:
         tests = [(split, result.splits[split].X) for split in result.test_splits]
         tests.append((VALIDATION_SPLIT, result.validation.X))
         return delayed(fit_one)(name, model, train.X, train.y, tests)
+
+
+# -- the protocol's family of models ---------------------------------------------
+def _network_kwargs(sizes, seed, seed_offset, target_scaling="per_output"):
+    return {
+        "target_scaling": target_scaling,
+        "max_epochs": sizes.max_epochs,
+        "patience": sizes.patience,
+        "batch_size": sizes.batch_size,
+        "random_state": seed + seed_offset,
+    }
+
+
+def model_zoo(system, settings):
+    """The one-step protocol's family of models for ``system`` (the paper's zoo).
+
+    Every model is unfitted; the order is the report's. The protocol's sizes
+    (:class:`~skhybrid.experiments.OneStepSizes`) give the networks and their
+    training budget, the spec's ``n_init`` the window.
+
+    Parameters
+    ----------
+    system : OneStepSystem
+        The system (gives its physics models and sizes).
+    settings : RunSettings
+        The run's seed, noise type and ``quick``.
+
+    Returns
+    -------
+    zoo : dict of str to estimator
+        Physics alone, a linear state-space model, dense, RNN and cyclic networks,
+        the hybrids physics+linear, physics+dense, physics+RNN (MSE),
+        physics+RNN (Ljung-Box), physics+cyclic, and the joint ensemble.
+    """
+    s, seed, n_steps = system.sizes(settings), settings.seed, system.n_steps
+    physics = system.physics(settings)
+    base = physics[system.hybrid_physics]
+
+    # Standalone networks predict states in different units: scale per output.
+    # Residual stages scale all outputs alike, so their loss weighs errors in the
+    # outputs' units like the physics stage's least squares (outputs the physics
+    # already explains hold only noise, which per-output scaling would inflate).
+    def dense(offset, scaling="per_output"):
+        return DenseRegressor(
+            s.dense_layers, **_network_kwargs(s, seed, offset, scaling)
+        )
+
+    def rnn(offset, objective="mse", scaling="per_output", lr=0.01, **lb):
+        return RNNRegressor(
+            "gru",
+            hidden_size=s.rnn_hidden,
+            num_layers=s.rnn_layers,
+            n_steps=n_steps,
+            objective=objective,
+            ljung_box_lags=s.lags,
+            lr=lr,
+            **lb,
+            **_network_kwargs(s, seed, offset, scaling),
+        )
+
+    def cyclic(offset, scaling="per_output"):
+        return CyclicRegressor(
+            s.dense_layers, **_network_kwargs(s, seed, offset, scaling)
+        )
+
+    def boost(name, stage, **kwargs):
+        return HybridBoostingRegressor(
+            [("physics", clone(base)), (name, stage)],
+            n_steps=n_steps,
+            ljung_box_lags=s.lags,
+            random_state=seed,
+            **kwargs,
+        )
+
+    zoo = dict(physics)
+    zoo["linear"] = LinearStateSpaceModel(n_steps=n_steps)
+    zoo["dense"] = dense(1)
+    zoo["rnn"] = rnn(2)
+    zoo["cyclic"] = cyclic(3)
+    # A linear stage reads the state from the window itself, not from added columns.
+    zoo["physics+linear"] = boost(
+        "linear", LinearStateSpaceModel(n_steps=n_steps), stage_input="window"
+    )
+    zoo["physics+dense"] = boost("dense", dense(4, "shared"))
+    # The recurrent residual stages learn at lr 0.003, chosen on a validation
+    # loss (docs/experiments.md, "How the settings were chosen").
+    zoo["physics+rnn (mse)"] = boost("rnn", rnn(5, "mse", "shared", 0.003))
+    # The Ljung-Box stage is the MSE stage fine-tuned: it trains on the MSE
+    # first (the same network, seed and batches as the MSE stage), then goes on
+    # from its best weights with batch normalisation frozen, on batches of
+    # shuffled rows (the MSE) plus segments of 32 rows in time order (the
+    # Ljung-Box term), weight 0.1, keeping the MSE weights unless the validation
+    # objective improves. Under process noise, where the true equations leave a
+    # white residual on every state, each output's term is on its own scale so
+    # that the small states' whiteness counts; under measurement noise no
+    # model's residual is white and that only cost RMSE. All chosen on the
+    # validation slice of the training rows (seed 0), see docs/losses.md
+    # ("Training a stage with a Ljung-Box term").
+    process = system.noise_type(settings) == "process"
+    zoo["physics+rnn (ljung-box)"] = boost(
+        "rnn",
+        rnn(
+            5,
+            "mse+ljung_box",
+            "shared",
+            0.003,
+            ljung_box_segment_length=max(32, s.lags + 1),
+            ljung_box_weight=0.1,
+            ljung_box_scaling="per_output" if process else "target",
+            mse_pretraining=True,
+        ),
+    )
+    zoo["physics+cyclic"] = boost("cyclic", cyclic(6, "shared"))
+    zoo["ensemble"] = HybridEnsembleRegressor(
+        clone(physics[system.ensemble_physics]),
+        dense(7),
+        max_epochs=s.max_epochs,
+        patience=s.patience,
+        batch_size=s.batch_size,
+        random_state=seed + 7,
+    )
+    return zoo

@@ -9,12 +9,123 @@ noise-free oracle's.
 """
 
 import numbers
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 
-__all__ = ["NOISE_TYPES", "OneStepWindows", "check_one_step_spec", "refuse_one_step"]
+__all__ = [
+    "NOISE_TYPES",
+    "OneStepSizes",
+    "OneStepWindows",
+    "check_one_step_spec",
+    "refuse_one_step",
+]
 
 #: Where a simulator's noise enters.
 NOISE_TYPES = ("measurement", "process")
+
+
+def _check_positive_int(name, value):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"{name} must be an int >= 1; got {name}={value!r}.")
+
+
+@dataclass(frozen=True)
+class OneStepSizes:
+    """Data sizes, architectures and training budget of a one-step run.
+
+    The defaults are the paper's appendix A scaled to a CPU budget, chosen
+    before any test set was seen; every network stops early on a validation
+    slice taken from the end of its own training rows. A
+    :class:`OneStepWindows` holds one for the full run (``sizes``) and one for
+    ``--quick`` (``quick_sizes``); every row of the data is a window of the
+    spec's ``n_init`` time steps.
+
+    Parameters
+    ----------
+    n_train : int, default=25_000
+        Training rows.
+    n_test : int, default=25_000
+        Rows of each test set (and of the validation episodes).
+    max_epochs : int, default=200
+        Most epochs of any network.
+    patience : int, default=30
+        Epochs without validation improvement before early stopping.
+    dense_layers : tuple of int, default=(128, 128, 128)
+        Hidden layers of the dense and cyclic networks.
+    rnn_hidden : int, default=50
+        Hidden units per recurrent layer.
+    rnn_layers : int, default=2
+        Recurrent layers.
+    batch_size : int, default=512
+        Mini-batch size.
+    window : int, default=200
+        Samples per short window of the RMSE-in-dB box plots.
+    lags : int, default=20
+        Ljung-Box lags of the losses and the whiteness tests.
+
+    Examples
+    --------
+    >>> from skhybrid.experiments import OneStepSizes
+    >>> OneStepSizes.quick().n_train
+    3000
+    """
+
+    n_train: int = 25_000
+    n_test: int = 25_000
+    max_epochs: int = 200
+    patience: int = 30
+    dense_layers: tuple = (128, 128, 128)
+    rnn_hidden: int = 50
+    rnn_layers: int = 2
+    batch_size: int = 512
+    window: int = 200
+    lags: int = 20
+
+    def __post_init__(self):
+        for f in fields(self):
+            if f.name != "dense_layers":
+                _check_positive_int(f.name, getattr(self, f.name))
+        layers = self.dense_layers
+        if not isinstance(layers, tuple) or not layers:
+            raise TypeError(
+                "dense_layers must be a non-empty tuple of ints; got "
+                f"dense_layers={layers!r}."
+            )
+        for i, width in enumerate(layers):
+            _check_positive_int(f"dense_layers[{i}]", width)
+
+    @classmethod
+    def quick(cls):
+        """The ``--quick`` sizes: a run that finishes within a minute on two cores.
+
+        Returns
+        -------
+        sizes : OneStepSizes
+            3,000 training and 2,000 test rows, 2 x 32 and 16-unit networks,
+            12 epochs.
+        """
+        return cls(
+            n_train=3_000,
+            n_test=2_000,
+            max_epochs=12,
+            patience=5,
+            dense_layers=(32, 32),
+            rnn_hidden=16,
+            rnn_layers=1,
+            batch_size=256,
+            window=100,
+        )
+
+    def to_dict(self):
+        """The sizes as a JSON-ready dict.
+
+        Returns
+        -------
+        sizes : dict
+            Every field, tuples as lists.
+        """
+        out = asdict(self)
+        out["dense_layers"] = list(self.dense_layers)
+        return out
 
 
 @dataclass(frozen=True)
@@ -50,7 +161,13 @@ class OneStepWindows:
         The paper's section the system reproduces.
     claims : callable or None, default=None
         ``claims(result)`` returning the paper's claims checked on a finished
-        run, a list of ``{"claim", "passed", "detail"}``; the report shows them.
+        run, a list of ``{"claim", "passed", "detail"}``; the report shows them
+        (a ``--quick`` run's as not evaluated).
+    sizes : OneStepSizes, default=OneStepSizes()
+        Data sizes, networks and training budget of the full run.
+    quick_sizes : OneStepSizes, default=OneStepSizes.quick()
+        Those of ``--quick`` (:class:`~skhybrid.experiments.RunSettings`'s
+        ``quick``).
 
     Examples
     --------
@@ -80,6 +197,8 @@ class OneStepWindows:
     descriptions: dict = field(default_factory=dict)
     section: str = ""
     claims: object = None
+    sizes: OneStepSizes = field(default_factory=OneStepSizes)
+    quick_sizes: OneStepSizes = field(default_factory=OneStepSizes.quick)
 
     def __post_init__(self):
         noise = self.noise
@@ -119,6 +238,25 @@ class OneStepWindows:
                 "claims must be a callable claims(result) or None; got "
                 f"claims={self.claims!r}."
             )
+        for key in ("sizes", "quick_sizes"):
+            value = getattr(self, key)
+            if not isinstance(value, OneStepSizes):
+                raise TypeError(f"{key} must be a OneStepSizes; got {key}={value!r}.")
+
+    def sizes_for(self, quick):
+        """The sizes of a full run or of ``--quick``.
+
+        Parameters
+        ----------
+        quick : bool
+            The run's ``quick``.
+
+        Returns
+        -------
+        sizes : OneStepSizes
+            ``quick_sizes`` or ``sizes``.
+        """
+        return self.quick_sizes if quick else self.sizes
 
 
 def refuse_one_step(spec, method):

@@ -8,14 +8,13 @@ the paper's three), or one free-run system at its seeds, searched at the first
 and refitted at each, its selection sealed before the test records are read.
 """
 
-from dataclasses import replace
-
 import numpy as np
 
 import skhybrid
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
+from skhybrid.experiments._settings import RunSettings
 
 __all__ = [
     "DEFAULT_SEEDS",
@@ -91,7 +90,7 @@ def measured_identity(system, quick, seeds):
         and the settings: a resume never reuses models fitted under another
         commit, other kernels or another spec.
     """
-    settings = system.default_settings(quick, seeds[0])
+    settings = RunSettings(quick=bool(quick), seed=seeds[0])
     code = provenance()
     return {
         "skhybrid": skhybrid.__version__,
@@ -174,12 +173,9 @@ class RunPlan:
         """The systems' names."""
         return [system.name for system in self.systems]
 
-    def settings(self, system, seed):
-        """``system``'s settings at ``seed`` (a one-step one's noise as asked)."""
-        settings = system.default_settings(self.quick, seed)
-        if self.measured:
-            return settings
-        return replace(settings, noise_type=self.noise_type)
+    def settings(self, seed):
+        """The run's settings at ``seed``."""
+        return RunSettings(quick=self.quick, seed=seed, noise_type=self.noise_type)
 
     @property
     def identity(self):
@@ -191,7 +187,7 @@ class RunPlan:
             "systems": self.names,
             "quick": self.quick,
             "seed": self.seeds[0],
-            "settings": self.settings(self.systems[0], self.seeds[0]).to_dict(),
+            "settings": self.settings(self.seeds[0]).to_dict(),
             # What each spec says (its simulators, physics and protocol by name).
             "specs": {system.name: system.digest() for system in self.systems},
         }
@@ -200,7 +196,7 @@ class RunPlan:
     def n_models(self):
         """Models the run fits: each system's zoo, at each seed."""
         return len(self.seeds) * sum(
-            len(system.model_zoo(self.settings(system, self.seeds[0])))
+            len(system.model_zoo(self.settings(self.seeds[0])))
             for system in self.systems
         )
 
@@ -250,7 +246,7 @@ class RunPlan:
         return [
             run_experiment(
                 system,
-                settings=self.settings(system, self.seeds[0]),
+                settings=self.settings(self.seeds[0]),
                 n_jobs=n_jobs,
                 progress=progress,
                 folder=folder,

@@ -1,8 +1,9 @@
 """The pipeline's fit: a system's model zoo, each model once, in parallel.
 
 :func:`run_experiment` runs a simulated system of the paper and a measured one
-through the same steps, calling the system's hooks (``default_settings``,
-``new_result``, ``model_zoo``, ``job``, ``epochs_at_most``): restore the models
+through the same steps, under the same :class:`RunSettings`, calling the
+system's hooks (``new_result``, ``model_zoo``, ``job``, ``epochs_at_most``):
+restore the models
 an earlier run finished, fit the others in stages (a model after the models it
 requires), write each to the run folder as it finishes, and score.
 :func:`fit_zoos` does it for several seeds at once, in one pool of workers (a
@@ -20,6 +21,7 @@ from joblib.parallel import get_active_backend
 
 from skhybrid.experiments._progress import ProgressBars
 from skhybrid.experiments._registry import get_system
+from skhybrid.experiments._settings import RunSettings, check_settings
 from skhybrid.experiments._simulated import ExperimentResult
 from skhybrid.experiments._store import VALIDATION_RUNS
 
@@ -140,9 +142,11 @@ def run_experiment(
         :class:`~skhybrid.experiments.SystemSpec`, of the one-step protocol
         (:class:`~skhybrid.experiments.OneStepWindows`: simulated and scored
         here) or of the free-run one (a measured system).
-    settings : ExperimentSettings, MeasuredSettings or None, default=None
-        Sizes and budgets; ``None`` takes the system's default for ``quick``
-        and ``seed``.
+    settings : RunSettings or None, default=None
+        The run's ``quick``, seed and noise type; ``None`` takes
+        ``RunSettings(quick=quick, seed=seed)``. A one-step system's sizes are
+        its spec's (:class:`~skhybrid.experiments.OneStepWindows`'s ``sizes``
+        and ``quick_sizes``).
     quick : bool, default=False
         Small data and few epochs (used only when ``settings`` is None).
     seed : int, default=0
@@ -176,7 +180,8 @@ def run_experiment(
     start = time.perf_counter()
     system = get_system(system)
     if settings is None:
-        settings = system.default_settings(quick, seed)
+        settings = RunSettings(quick=bool(quick), seed=seed)
+    check_settings(system, settings)
     (result,) = fit_zoos(
         system,
         [settings],
@@ -293,7 +298,7 @@ def fit_zoos(
     ----------
     system : System
         The system (from :func:`~skhybrid.experiments._registry.get_system`).
-    settings : list of ExperimentSettings or MeasuredSettings
+    settings : list of RunSettings
         Each seed's settings.
     n_jobs, progress, folder, data, searched
         As :func:`run_experiment`'s.

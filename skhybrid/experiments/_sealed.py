@@ -28,6 +28,7 @@ from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._registry import get_system
 from skhybrid.experiments._runner import fit_zoos, run_experiment
+from skhybrid.experiments._settings import RunSettings
 from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._stochastic import (
     BAND_LEVEL,
@@ -380,7 +381,7 @@ class MeasuredRun:
     ----------
     system : MeasuredSystem
         The system.
-    settings : MeasuredSettings
+    settings : RunSettings
         The first seed's settings (``quick``).
     seeds : list of int
         The seeds (the first searched, each refitted).
@@ -643,9 +644,7 @@ def record_digests(system, seeds, *, quick=False, data=None):
     """
     bound = system.bind(data, quick)
     digest = records_digest(*bound.spec.estimation_records())
-    return {
-        bound.store_key(bound.default_settings(quick, seed)): digest for seed in seeds
-    }
+    return {bound.store_key(RunSettings(seed=seed)): digest for seed in seeds}
 
 
 def first_searches(result):
@@ -722,7 +721,7 @@ def run_seeds(
     seeds = list(seeds)
     first = run_experiment(
         system,
-        settings=system.default_settings(quick, seeds[0]),
+        settings=RunSettings(quick=bool(quick), seed=seeds[0]),
         n_jobs=n_jobs,
         progress=progress,
         folder=folder,
@@ -734,7 +733,7 @@ def run_seeds(
         refit_start = time.perf_counter()
         results += fit_zoos(
             get_system(system),
-            [system.default_settings(quick, seed) for seed in seeds[1:]],
+            [RunSettings(quick=bool(quick), seed=seed) for seed in seeds[1:]],
             n_jobs=n_jobs,
             progress=progress,
             folder=folder,

@@ -1,95 +1,64 @@
-"""Sizes and training budgets of the experiments: the full run and ``--quick``."""
+"""What makes two runs of a system the same: :class:`RunSettings`."""
 
+import numbers
 from dataclasses import asdict, dataclass, replace
 
-__all__ = ["ExperimentSettings"]
+from skhybrid.experiments._protocol import NOISE_TYPES
+
+__all__ = ["RunSettings", "check_settings"]
 
 
 @dataclass(frozen=True)
-class ExperimentSettings:
-    """Sizes, architectures and training budget shared by every model of a run.
+class RunSettings:
+    """The settings of one run of any system, as ``skhybrid run`` takes them.
 
-    Chosen before looking at any test set: the architectures follow the paper's
-    appendix A scaled to a CPU budget, and every network stops early on a
-    validation slice taken from the end of its training rows.
+    Every system, simulated or measured, runs under these three; what a system
+    fits and how much (a one-step system's data sizes and networks, a
+    free-run system's candidates) is its spec's, not the run's.
 
     Parameters
     ----------
-    n_train : int
-        Training rows.
-    n_test : int
-        Rows of each test set (interpolative, extrapolative).
-    n_steps : int
-        Time steps per row (the window the RNN reads).
-    max_epochs : int
-        Most epochs of any network.
-    patience : int
-        Epochs without validation improvement before early stopping.
-    dense_layers : tuple of int
-        Hidden layers of the dense and cyclic networks.
-    rnn_hidden : int
-        Hidden units per recurrent layer.
-    rnn_layers : int
-        Recurrent layers.
-    batch_size : int
-        Mini-batch size.
-    window : int
-        Samples per short window of the RMSE-in-dB box plots.
-    lags : int
-        Ljung-Box lags of the losses and the whiteness tests.
-    seed : int
-        Seed of data and models.
-    noise_type : {"measurement", "process"} or None
-        Where the simulators' noise enters (see
-        :func:`skhybrid.datasets.make_pendulum`): ``"measurement"`` on the measured
-        states, the paper's setting, or ``"process"`` into the dynamics, so that
-        the true equations' one-step residual is white. ``None`` takes the
-        system's default: process noise for the double pendulum, whose whiteness
-        claim is testable only then, measurement noise elsewhere.
+    quick : bool, default=False
+        The short form of the run (``--quick``): a one-step system's quick
+        sizes (:class:`~skhybrid.experiments.OneStepWindows`'s
+        ``quick_sizes``), a free-run system's shorter fits and fewer
+        candidates.
+    seed : int, default=0
+        Seed of the networks (and of a one-step system's simulated splits).
+    noise_type : {"measurement", "process"} or None, default=None
+        Where a one-step system's simulators put their noise (``--noise-type``);
+        None takes the spec's own. A free-run system reads measured records
+        and takes None only.
+
+    Examples
+    --------
+    >>> from skhybrid.experiments import RunSettings
+    >>> RunSettings(quick=True).with_seed(3)
+    RunSettings(quick=True, seed=3, noise_type=None)
     """
 
-    n_train: int = 25_000
-    n_test: int = 25_000
-    n_steps: int = 4
-    max_epochs: int = 200
-    patience: int = 30
-    dense_layers: tuple = (128, 128, 128)
-    rnn_hidden: int = 50
-    rnn_layers: int = 2
-    batch_size: int = 512
-    window: int = 200
-    lags: int = 20
+    quick: bool = False
     seed: int = 0
     noise_type: str | None = None
 
-    @classmethod
-    def full(cls, seed=0):
-        """The default run: the paper's data sizes on a CPU training budget."""
-        return cls(seed=seed)
-
-    @classmethod
-    def quick(cls, seed=0):
-        """A small run that finishes within a minute on two cores."""
-        return cls(
-            n_train=3_000,
-            n_test=2_000,
-            max_epochs=12,
-            patience=5,
-            dense_layers=(32, 32),
-            rnn_hidden=16,
-            rnn_layers=1,
-            batch_size=256,
-            window=100,
-            seed=seed,
-        )
-
-    @property
-    def is_full(self):
-        """Whether these are the full run's settings (any seed and noise type)."""
-        from dataclasses import replace
-
-        full = replace(type(self).full(), noise_type=None)
-        return replace(self, seed=0, noise_type=None) == full
+    def __post_init__(self):
+        if not isinstance(self.quick, bool):
+            raise TypeError(f"quick must be a bool; got quick={self.quick!r}.")
+        seed = self.seed
+        if (
+            isinstance(seed, bool)
+            or not isinstance(seed, numbers.Integral)
+            or not 0 <= seed < 2**32
+        ):
+            raise ValueError(
+                f"seed must be an int in [0, 2**32 - 1]; got seed={seed!r}."
+            )
+        object.__setattr__(self, "seed", int(seed))  # numpy's ints as Python's
+        if self.noise_type is not None and self.noise_type not in NOISE_TYPES:
+            raise ValueError(
+                f"noise_type must be one of {NOISE_TYPES} or None; got "
+                f"noise_type={self.noise_type!r}."
+            )
 
     def with_seed(self, seed):
         """The same settings with another seed.
@@ -97,11 +66,11 @@ class ExperimentSettings:
         Parameters
         ----------
         seed : int
-            Seed of the data and the models.
+            Seed of the networks and the splits.
 
         Returns
         -------
-        settings : ExperimentSettings
+        settings : RunSettings
             A copy with ``seed``.
         """
         return replace(self, seed=seed)
@@ -112,8 +81,35 @@ class ExperimentSettings:
         Returns
         -------
         settings : dict
-            Every field, tuples as lists.
+            Every field.
         """
-        out = asdict(self)
-        out["dense_layers"] = list(self.dense_layers)
-        return out
+        return asdict(self)
+
+
+def check_settings(system, settings):
+    """Raise unless ``settings`` can run ``system``.
+
+    Parameters
+    ----------
+    system : OneStepSystem or MeasuredSystem
+        The system.
+    settings : object
+        What the caller gave as its settings.
+
+    Raises
+    ------
+    TypeError
+        ``settings`` is not a :class:`RunSettings`.
+    ValueError
+        A noise type for a measured system, whose records hold their own noise.
+    """
+    if not isinstance(settings, RunSettings):
+        raise TypeError(
+            "settings must be a skhybrid.experiments.RunSettings (quick, seed, "
+            f"noise_type); got {type(settings).__name__}: {settings!r}."
+        )
+    if system.measured and settings.noise_type is not None:
+        raise ValueError(
+            f"{system.name} is measured: its records hold their own noise, so "
+            f"settings.noise_type must be None; got {settings.noise_type!r}."
+        )

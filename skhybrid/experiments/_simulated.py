@@ -30,8 +30,8 @@ class ExperimentResult:
     ----------
     system : OneStepSystem
         The system (a spec of the one-step protocol).
-    settings : ExperimentSettings
-        Sizes, architectures and seed.
+    settings : RunSettings
+        The run's ``quick``, seed and noise type.
     splits : dict of str to Bunch
         The simulated data of each split.
 
@@ -39,8 +39,10 @@ class ExperimentResult:
     ----------
     system : OneStepSystem
         The system (a spec of the one-step protocol).
-    settings : ExperimentSettings
-        Sizes, architectures and seed.
+    settings : RunSettings
+        The run's ``quick``, seed and noise type.
+    sizes : OneStepSizes
+        The data sizes, networks and budget the run used (the spec's).
     splits : dict of str to Bunch
         The simulated data of each split.
     predictions : dict of str to dict of str to ndarray
@@ -68,6 +70,7 @@ class ExperimentResult:
     def __init__(self, system, settings, splits):
         self.system = system
         self.settings = settings
+        self.sizes = system.sizes(settings)
         self.splits = splits
         self.predictions = {name: {} for name in splits if name != "train"}
         self.predictions[VALIDATION_SPLIT] = {}
@@ -145,7 +148,7 @@ class ExperimentResult:
         return simulated_report(self, out_dir)
 
     def report_settings(self):
-        """The report's settings table: the run's settings.
+        """The report's settings table: the run's settings and sizes.
 
         Returns
         -------
@@ -185,7 +188,7 @@ class ExperimentResult:
             ``{model: RMSE in dB per window and output}``."""
         y = self.splits[split].y
         return {
-            model: rmse_db(y, pred, window=self.settings.window)
+            model: rmse_db(y, pred, window=self.sizes.window)
             for model, pred in self.predictions[split].items()
         }
 
@@ -237,7 +240,7 @@ def fit_one(name, estimator, X, y, tests):
 
 def _model_rows(result, split, model):
     """Scores of one model on one test split, one row per output."""
-    s = result.settings
+    s, seed = result.sizes, result.settings.seed
     data = result.splits[split]
     y = np.asarray(data.y, dtype=float)
     oracle_rmse = np.sqrt(np.mean((y - data.oracle) ** 2, axis=0))
@@ -250,7 +253,7 @@ def _model_rows(result, split, model):
     return [
         {
             "system": result.system.name,
-            "seed": s.seed,
+            "seed": seed,
             "model": model,
             "split": split,
             "output": output,

@@ -37,7 +37,7 @@ def _figures(result, out_dir):
         disp = RMSEBoxDisplay(
             rmse_db=result.windowed_db(split),
             output_names=result.target_names,
-            window=result.settings.window,
+            window=result.sizes.window,
         ).plot(ax=fig.subplots(1, n_outputs, squeeze=False))
         disp.figure_.suptitle(f"{result.system.title}: {split} test set")
         path = out_dir / f"{name}_rmse_{split}.png"
@@ -56,7 +56,7 @@ def _figures(result, out_dir):
         disp = ResidualACFDisplay.from_predictions(
             result.splits[split].y,
             result.predictions[split][model],
-            lags=result.settings.lags,  # the lags of the whiteness table too
+            lags=result.sizes.lags,  # the lags of the whiteness table too
             name=model,
             output_names=result.target_names,
             ax=fig.subplots(1, residual.shape[1], squeeze=False),
@@ -199,14 +199,14 @@ def _section(result, figures, claims):
     formats["fit s"] = ".1f"
     parts.append(
         "<h3>Results</h3><p>dB: median over windows of "
-        f"{result.settings.window} samples of 20 log10(RMSE); /oracle: RMSE over "
+        f"{result.sizes.window} samples of 20 log10(RMSE); /oracle: RMSE over "
         "the oracle's (the true equations applied to each row); LB p: Ljung-Box "
-        f"p-value of the residual at {result.settings.lags} lags.</p>"
+        f"p-value of the residual at {result.sizes.lags} lags.</p>"
     )
     parts.append(_table(summary, columns, formats))
     parts.append(
         "<h3>Whiteness</h3><p>Each model's residual beside the oracle's: Ljung-Box "
-        f"statistic Q at {result.settings.lags} lags (lower is whiter) and the "
+        f"statistic Q at {result.sizes.lags} lags (lower is whiter) and the "
         "residual's standard deviation over the injected noise's.</p>"
     )
     white_columns = ["model", "split"] + [
@@ -237,8 +237,8 @@ def _section(result, figures, claims):
 
 
 def simulated_settings(result):
-    """The report's settings table of a simulated system's run: its settings."""
-    return result.settings.to_dict()
+    """The report's settings table of a simulated system's run: settings and sizes."""
+    return result.system.settings_table(result.settings)
 
 
 def simulated_report(result, out_dir):
@@ -264,7 +264,7 @@ def simulated_report(result, out_dir):
     claims = check_claims(result)
     summary = {
         "title": result.system.title,
-        "settings": result.settings.to_dict(),
+        "settings": simulated_settings(result),
         "wall_time_s": result.wall_time,
         "hull_outside_share": result.hull,
         "noise_type": getattr(result.splits["train"], "noise_type", None),

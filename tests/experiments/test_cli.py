@@ -269,34 +269,39 @@ def test_the_catalogue_names_every_built_in_system():
     ],
 )
 def test_noise_type_reaches_the_simulated_splits(system, noise_type, expected):
+    from skhybrid.experiments import RunSettings
+
+    settings = RunSettings(quick=True, noise_type=noise_type)
+    small = _small(system, n_train=300, n_test=200)
+    splits = small.make_splits(settings)
+    assert {data.noise_type for data in splits.values()} == {expected}
+    assert small.noise_type(settings) == expected
+
+
+def _small(system, **sizes):
+    """A built-in one-step system whose quick run has ``sizes``."""
     from dataclasses import replace
 
-    from skhybrid.experiments import SYSTEMS, ExperimentSettings
+    from skhybrid.experiments import SYSTEMS
+    from skhybrid.experiments._registry import get_system
 
-    settings = replace(
-        ExperimentSettings.quick(),
-        n_train=300,
-        n_test=200,
-        noise_type=noise_type,
-    )
-    splits = SYSTEMS[system].make_splits(settings)
-    assert {data.noise_type for data in splits.values()} == {expected}
-    assert SYSTEMS[system].noise_type(settings) == expected
+    spec = SYSTEMS[system].spec
+    quick = replace(spec.protocol.quick_sizes, **sizes)
+    return get_system(replace(spec, protocol=replace(spec.protocol, quick_sizes=quick)))
 
 
 @pytest.mark.parametrize("system", ["pendulum", "double-pendulum", "dc-motor"])
 def test_every_seed_numpy_takes_makes_the_splits(system):
     # The test and validation splits' seeds are offsets of the run's: at the
     # top of numpy's range they wrap around instead of overflowing it.
-    from dataclasses import replace
+    from skhybrid.experiments import RunSettings
 
-    from skhybrid.experiments import SYSTEMS, ExperimentSettings
-
-    settings = replace(ExperimentSettings.quick(seed=2**32 - 1), n_train=60, n_test=40)
-    splits = SYSTEMS[system].make_splits(settings)
+    small = _small(system, n_train=60, n_test=40)
+    settings = RunSettings(quick=True, seed=2**32 - 1)
+    splits = small.make_splits(settings)
     assert {name: len(data.X) for name, data in splits.items()} == {
         name: 60 if name == "train" else 40 for name in splits
     }
-    assert len(SYSTEMS[system].validation_split(settings).X) == 40
+    assert len(small.validation_split(settings).X) == 40
     # An ordinary seed's splits are unchanged: seed + 1000 and seed + 2000.
-    assert SYSTEMS[system].split_seed(ExperimentSettings.quick(seed=3), 1000) == 1003
+    assert small.split_seed(RunSettings(quick=True, seed=3), 1000) == 1003

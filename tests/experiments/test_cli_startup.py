@@ -67,24 +67,17 @@ def test_list_shows_every_system_with_its_kind_and_data(tmp_path, capsys, monkey
     assert "data not yet fetched" in capsys.readouterr().out
 
 
-def test_settings_know_whether_they_are_the_full_run():
-    from skhybrid.experiments import ExperimentSettings
-
-    assert ExperimentSettings.full(seed=3).is_full
-    assert not ExperimentSettings.quick(seed=0).is_full
-
-
 def test_claims_are_judged_on_full_settings_only(monkeypatch):
     from types import SimpleNamespace
 
-    from skhybrid.experiments import ExperimentSettings, _claims
+    from skhybrid.experiments import RunSettings, _claims
 
     def one_claim(result):
         return [{"claim": "c", "passed": False, "detail": "x = 2"}]
 
     system = SimpleNamespace(name="pendulum", claims=one_claim)
-    full = SimpleNamespace(system=system, settings=ExperimentSettings.full())
-    quick = SimpleNamespace(system=system, settings=ExperimentSettings.quick())
+    full = SimpleNamespace(system=system, settings=RunSettings(seed=3))
+    quick = SimpleNamespace(system=system, settings=RunSettings(quick=True))
     assert _claims.check_claims(full)[0]["passed"] is False
     claim = _claims.check_claims(quick)[0]
     assert claim["passed"] is None

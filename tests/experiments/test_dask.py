@@ -110,14 +110,15 @@ def _table(out):
 def test_dask_local_run_gives_the_local_table(tmp_path, monkeypatch):
     pytest.importorskip("distributed", reason=NO_DASK)
     from skhybrid import experiments
-    from skhybrid.experiments import _report, _runner
+    from skhybrid.experiments import _one_step, _report
+
+    full_zoo = _one_step.model_zoo
 
     def zoo(system, settings):
-        full = experiments._zoo.model_zoo(system, settings)
+        full = full_zoo(system, settings)
         return {k: full[k] for k in ("physics (refit)", "linear", "dense")}
 
-    monkeypatch.setattr(experiments, "model_zoo", zoo)
-    monkeypatch.setattr(_runner, "model_zoo", zoo)
+    monkeypatch.setattr(_one_step, "model_zoo", zoo)
     monkeypatch.setattr(experiments, "check_claims", lambda result: [])
     monkeypatch.setattr(_report, "check_claims", lambda result: [])
     argv = ["run", "pendulum", "--quick", "--no-progress", "--n-jobs", "2"]

@@ -20,14 +20,19 @@ from skhybrid.cli import main
 from skhybrid.datasets import make_dc_motor
 from skhybrid.domain import ParametricModel, dc_motor_step
 from skhybrid.experiments import (
-    ExperimentSettings,
+    OneStepSizes,
     OneStepWindows,
+    RunSettings,
     SystemSpec,
     check_claims,
     run_experiment,
     run_system,
 )
 from skhybrid.experiments._registry import SYSTEMS, get_system
+
+#: Small enough for the default suite: every model of the zoo, a few epochs
+#: (the guide's spec's quick sizes).
+TINY = OneStepSizes(n_train=300, n_test=200, max_epochs=2)
 
 
 def _motor(**kwargs):
@@ -39,16 +44,13 @@ def _motor(**kwargs):
             partial(dc_motor_step, dt=0.001), {"gain": 1.0, "time_constant": 0.05}
         ),
         "n_init": 4,
-        "protocol": OneStepWindows(descriptions={"train": "10 Hz", "fast": "100 Hz"}),
+        # Its --quick run at tiny sizes.
+        "protocol": OneStepWindows(
+            descriptions={"train": "10 Hz", "fast": "100 Hz"}, quick_sizes=TINY
+        ),
     }
     fields.update(kwargs)
     return SystemSpec("my-motor", **fields)
-
-
-#: Small enough for the default suite: every model of the zoo, a few epochs.
-TINY = replace(
-    ExperimentSettings.quick(), n_train=300, n_test=200, max_epochs=2, window=50
-)
 
 
 def test_the_papers_systems_are_specs_of_the_one_step_protocol():
@@ -60,7 +62,7 @@ def test_the_papers_systems_are_specs_of_the_one_step_protocol():
     pendulum = SYSTEMS["pendulum"]
     assert pendulum.hybrid_physics == "physics (frozen)"
     assert pendulum.ensemble_physics == "physics (refit)"
-    settings = pendulum.default_settings(quick=True, seed=3)
+    settings = RunSettings(quick=True, seed=3)
     splits = pendulum.make_splits(settings)
     assert list(splits) == ["train", "interpolation", "extrapolation"]
     # The test sets are simulated 1000 and 2000 seeds away from the run's: the
@@ -73,8 +75,9 @@ def test_the_papers_systems_are_specs_of_the_one_step_protocol():
 
 def test_a_users_simulator_runs_the_zoo_and_is_scored_on_its_test_sets():
     spec = _motor()
-    result = run_experiment(spec, settings=TINY)
+    result = run_experiment(spec, quick=True)
     assert result.system.name == "my-motor"
+    assert result.sizes == TINY and len(result.splits["train"].X) == 300
     assert result.test_splits == ["fast"]
     models = set(result.predictions["fast"]) - {"oracle"}
     assert {"physics", "linear", "dense", "physics+dense", "ensemble"} <= models
@@ -89,11 +92,17 @@ def test_a_one_step_specs_claims_reach_the_report(tmp_path):
     def claims(result):
         return [{"claim": "the physics is fitted", "passed": True, "detail": "ok"}]
 
-    spec = _motor(protocol=OneStepWindows(claims=claims))
-    result = run_experiment(spec, settings=TINY)
-    # On settings other than the full run's, a claim is not judged.
+    spec = _motor(protocol=OneStepWindows(claims=claims, quick_sizes=TINY))
+    result = run_experiment(spec, quick=True)
+    # A quick run's claim is not judged.
     (claim,) = check_claims(result)
     assert claim["passed"] is None and claim["detail"].endswith("ok")
+    # A full run's is, at the spec's own full sizes.
+    spec = _motor(protocol=OneStepWindows(claims=claims, sizes=TINY))
+    result = run_experiment(spec, settings=RunSettings(seed=1))
+    assert result.sizes == TINY
+    (claim,) = check_claims(result)
+    assert claim["passed"] is True and claim["detail"] == "ok"
 
 
 @pytest.mark.parametrize(
@@ -131,11 +140,55 @@ def test_a_one_step_spec_is_checked_when_built(kwargs, error, match):
         ({"claims": "yes"}, "claims must be a callable"),
         ({"descriptions": ["train"]}, "descriptions must be a dict"),
         ({"hybrid_physics": 3}, "hybrid_physics must be a label"),
+        ({"sizes": {"n_train": 300}}, "sizes must be a OneStepSizes"),
+        ({"quick_sizes": None}, "quick_sizes must be a OneStepSizes"),
     ],
 )
 def test_the_protocol_names_the_parameter_it_refuses(kwargs, match):
     with pytest.raises((TypeError, ValueError), match=match):
         OneStepWindows(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"n_train": 0}, "n_train must be an int >= 1; got n_train=0"),
+        ({"max_epochs": 2.5}, "max_epochs must be an int"),
+        ({"lags": True}, "lags must be an int"),
+        ({"dense_layers": [32, 32]}, "dense_layers must be a non-empty tuple"),
+        (
+            {"dense_layers": (32, -1)},
+            "dense_layers\\[1\\] must be an int >= 1; got dense_layers\\[1\\]=-1",
+        ),
+    ],
+)
+def test_the_sizes_name_the_parameter_they_refuse(kwargs, match):
+    with pytest.raises((TypeError, ValueError), match=match):
+        OneStepSizes(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"quick": 1}, TypeError, "quick must be a bool; got quick=1"),
+        ({"seed": -1}, ValueError, "seed must be an int in \\[0, 2\\*\\*32 - 1\\]"),
+        ({"seed": 2**32}, ValueError, "seed must be an int"),
+        ({"noise_type": "both"}, ValueError, "noise_type must be one of"),
+    ],
+)
+def test_the_run_settings_name_the_parameter_they_refuse(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        RunSettings(**kwargs)
+
+
+def test_a_run_takes_run_settings_only():
+    assert RunSettings(seed=np.int64(3)).to_dict() == {
+        "quick": False,
+        "seed": 3,
+        "noise_type": None,
+    }
+    with pytest.raises(TypeError, match=r"settings must be a skhybrid\.experiments"):
+        run_experiment(_motor(), settings=TINY)
 
 
 def test_a_one_step_spec_has_no_records_to_read(tmp_path):
@@ -144,11 +197,6 @@ def test_a_one_step_spec_has_no_records_to_read(tmp_path):
 
 
 def test_run_system_runs_a_one_step_spec_at_one_seed(tmp_path, monkeypatch):
-    monkeypatch.setattr(
-        ExperimentSettings,
-        "quick",
-        classmethod(lambda cls, seed=0: replace(TINY, seed=seed)),
-    )
     spec = _motor()
     with pytest.raises(ValueError, match="one seed"):
         run_system(spec, tmp_path / "two", seeds=[0, 1], quick=True)
@@ -194,7 +242,7 @@ def test_the_command_line_runs_a_users_one_step_spec(tmp_path, monkeypatch, caps
         "from functools import partial\n"
         "from skhybrid.datasets import make_dc_motor\n"
         "from skhybrid.domain import ParametricModel, dc_motor_step\n"
-        "from skhybrid.experiments import OneStepWindows, SystemSpec\n"
+        "from skhybrid.experiments import OneStepSizes, OneStepWindows, SystemSpec\n"
         "spec = SystemSpec(\n"
         "    'my-motor',\n"
         "    records=partial(make_dc_motor, excitation_hz=10.0),\n"
@@ -204,17 +252,14 @@ def test_the_command_line_runs_a_users_one_step_spec(tmp_path, monkeypatch, caps
         "        {'gain': 1.0, 'time_constant': 0.05},\n"
         "    ),\n"
         "    n_init=4,\n"
-        "    protocol=OneStepWindows(),\n"
+        "    # Its --quick run at tiny sizes: the zoo's every model, in seconds.\n"
+        "    protocol=OneStepWindows(\n"
+        "        quick_sizes=OneStepSizes(n_train=300, n_test=200, max_epochs=2),\n"
+        "    ),\n"
         ")\n"
     )
     monkeypatch.chdir(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path))
-    # Tiny settings: the zoo's every model, in seconds.
-    monkeypatch.setattr(
-        ExperimentSettings,
-        "quick",
-        classmethod(lambda cls, seed=0: replace(TINY, seed=seed)),
-    )
     argv = ["run", "--system", "my_motor:spec", "--quick", "--no-progress"]
     assert main([*argv, "--seeds", "0", "1", "--out", "x"]) == 2
     assert "runs one seed" in capsys.readouterr().err

@@ -236,7 +236,7 @@ def test_stored_model_is_the_fitted_model(tmp_path, tiny_zoo):
         stored = data["interpolation"]
     X = (
         experiments.SYSTEMS["pendulum"]
-        .make_splits(experiments.ExperimentSettings.quick(0))["interpolation"]
+        .make_splits(experiments.RunSettings(quick=True))["interpolation"]
         .X
     )
     np.testing.assert_array_equal(model.predict(X), stored)

@@ -19,6 +19,7 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
 from skhybrid.experiments import (
+    RunSettings,
     SystemSpec,
     _measured_search,
     _measured_zoo,
@@ -791,7 +792,7 @@ def test_the_epoch_total_counts_folds_candidates_and_refits(machine):
         }
     )
     system = MeasuredSystem.from_spec(spec)
-    result = system.new_result(system.default_settings(quick=False), None)
+    result = system.new_result(RunSettings(), None)
     models = system.model_zoo(result.settings)
     ctx = _context(result)
     # Full settings: 60-epoch networks, three correction windows, both hybrids.

@@ -47,7 +47,7 @@ def _tiny_zoo(interrupt_dense=False, ctrl_c=None):
                 ("physics", full["physics (refit)"]),
                 ("dense", DenseRegressor((8,), max_epochs=6, random_state=1)),
             ],
-            n_steps=settings.n_steps,
+            n_steps=system.n_steps,
         )
         return out
 

@@ -585,7 +585,9 @@ class MeasuredResult:
         physics = self.params.get("physics", {})
         return {
             "seed": self.settings.seed,
-            "settings": self.settings.to_dict(),
+            # What a measured run's choices depend on (its records hold their
+            # own noise: no noise type).
+            "settings": {"quick": self.settings.quick, "seed": self.settings.seed},
             "models": {
                 model: _jsonable(fit.get("selection"))
                 for model, fit in self.fits.items()

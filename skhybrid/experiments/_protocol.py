@@ -24,7 +24,9 @@ NOISE_TYPES = ("measurement", "process")
 
 
 def _check_positive_int(name, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an int >= 1; got {name}={value!r}.")
+    if value < 1:
         raise ValueError(f"{name} must be an int >= 1; got {name}={value!r}.")
 
 

@@ -45,14 +45,11 @@ class RunSettings:
         if not isinstance(self.quick, bool):
             raise TypeError(f"quick must be a bool; got quick={self.quick!r}.")
         seed = self.seed
-        if (
-            isinstance(seed, bool)
-            or not isinstance(seed, numbers.Integral)
-            or not 0 <= seed < 2**32
-        ):
-            raise ValueError(
-                f"seed must be an int in [0, 2**32 - 1]; got seed={seed!r}."
-            )
+        message = f"seed must be an int in [0, 2**32 - 1]; got seed={seed!r}."
+        if isinstance(seed, bool) or not isinstance(seed, numbers.Integral):
+            raise TypeError(message)
+        if not 0 <= seed < 2**32:
+            raise ValueError(message)
         object.__setattr__(self, "seed", int(seed))  # numpy's ints as Python's
         if self.noise_type is not None and self.noise_type not in NOISE_TYPES:
             raise ValueError(

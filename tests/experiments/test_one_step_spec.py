@@ -173,6 +173,7 @@ def test_the_sizes_name_the_parameter_they_refuse(kwargs, match):
         ({"quick": 1}, TypeError, "quick must be a bool; got quick=1"),
         ({"seed": -1}, ValueError, "seed must be an int in \\[0, 2\\*\\*32 - 1\\]"),
         ({"seed": 2**32}, ValueError, "seed must be an int"),
+        ({"seed": 1.0}, TypeError, "seed must be an int"),
         ({"noise_type": "both"}, ValueError, "noise_type must be one of"),
     ],
 )

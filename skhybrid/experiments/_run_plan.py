@@ -149,8 +149,9 @@ class RunPlan:
             raise ValueError("a run of the free-run protocol holds one system")
         if self.measured and noise_type is not None:
             raise ValueError(
-                f"--noise-type sets the simulators' noise; {systems[0].name} is a "
-                "measured system: drop --noise-type"
+                f"noise_type (--noise-type) sets the simulators' noise; "
+                f"{systems[0].name} is a measured system, whose records hold their "
+                f"own: leave it unset; got noise_type={noise_type!r}."
             )
         if seeds is None:
             seeds = DEFAULT_SEEDS if self.measured else (0,)

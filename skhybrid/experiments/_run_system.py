@@ -120,6 +120,7 @@ def run_system(
     *,
     seeds=DEFAULT_SEEDS,
     quick=False,
+    noise_type=None,
     n_jobs=2,
     overwrite=False,
     resume=False,
@@ -156,6 +157,10 @@ def run_system(
         A spec of the one-step protocol takes one seed (of its data too).
     quick : bool, default=False
         Shorter fits and fewer candidates (a smoke test, not a figure).
+    noise_type : {"measurement", "process"} or None, default=None
+        Where a one-step spec's simulators put their noise, as the command
+        line's ``--noise-type``; None takes the spec's own. A free-run spec's
+        records hold their own noise: it takes None only.
     n_jobs : int, default=2
         Workers of joblib (-1: all cores), as the command line's ``--n-jobs``:
         the models are fitted one after another, each model's (candidate,
@@ -196,10 +201,11 @@ def run_system(
     seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume)
     if not isinstance(spec, SystemSpec):
         raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
-    plan = RunPlan([system_of(spec)], seeds=seeds, quick=quick)
+    plan = RunPlan([system_of(spec)], seeds=seeds, quick=quick, noise_type=noise_type)
+    noise = "" if noise_type is None else f", noise_type={noise_type!r}"
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
-        f"{str(out)!r}, seeds={seeds}, quick={bool(quick)})"
+        f"{str(out)!r}, seeds={seeds}, quick={bool(quick)}{noise})"
     )
     return _run_folder(
         plan,

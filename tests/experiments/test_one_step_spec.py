@@ -214,6 +214,19 @@ def test_run_system_runs_a_one_step_spec_at_one_seed(tmp_path, monkeypatch):
     )
     again.pop("wall_time_s"), summary.pop("wall_time_s")
     assert again == summary
+    # Process noise, as --noise-type gives it.
+    summary = run_system(
+        spec,
+        tmp_path / "process",
+        seeds=0,
+        quick=True,
+        noise_type="process",
+        n_jobs=1,
+        progress=False,
+    )
+    assert summary["noise_type"] == "process"
+    assert summary["settings"]["noise_type"] == "process"
+    assert on_disk["noise_type"] == "measurement"
 
 
 def test_get_system_takes_a_spec_of_either_protocol():

@@ -364,6 +364,13 @@ def test_a_bad_spec_names_the_parameter(machine, kwargs, error, words):
         machine.make_spec(**kwargs)
 
 
+def test_a_measured_run_takes_no_noise_type(machine, tmp_path):
+    # Its records hold their own noise: refused before the folder is touched.
+    with pytest.raises(ValueError, match=r"leave it unset; got noise_type='process'"):
+        run_system(machine.make_spec(), tmp_path / "run", noise_type="process")
+    assert not (tmp_path / "run").exists()
+
+
 def test_records_are_checked_before_anything_is_fitted(machine):
     u, y = machine.record(100, 0)
     y_bad = y.copy()

@@ -14,7 +14,7 @@ import skhybrid
 from skhybrid.experiments._provenance import provenance
 from skhybrid.experiments._runner import run_experiment
 from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
-from skhybrid.experiments._settings import RunSettings
+from skhybrid.experiments._settings import RunSettings, check_settings
 
 __all__ = [
     "DEFAULT_SEEDS",
@@ -147,12 +147,6 @@ class RunPlan:
             raise ValueError("a run holds systems of one protocol")
         if self.measured and len(systems) != 1:
             raise ValueError("a run of the free-run protocol holds one system")
-        if self.measured and noise_type is not None:
-            raise ValueError(
-                f"noise_type (--noise-type) sets the simulators' noise; "
-                f"{systems[0].name} is a measured system, whose records hold their "
-                f"own: leave it unset; got noise_type={noise_type!r}."
-            )
         if seeds is None:
             seeds = DEFAULT_SEEDS if self.measured else (0,)
         self.seeds = check_seeds(seeds)
@@ -168,6 +162,8 @@ class RunPlan:
         self.quick = bool(quick)
         self.data = data
         self.noise_type = noise_type
+        for system in systems:
+            check_settings(system, self.settings(self.seeds[0]))
 
     @property
     def names(self):

@@ -107,6 +107,7 @@ def check_settings(system, settings):
         )
     if system.measured and settings.noise_type is not None:
         raise ValueError(
-            f"{system.name} is measured: its records hold their own noise, so "
-            f"settings.noise_type must be None; got {settings.noise_type!r}."
+            "noise_type (--noise-type) sets the simulators' noise; "
+            f"{system.name} is a measured system, whose records hold their own: "
+            f"leave it unset; got noise_type={settings.noise_type!r}."
         )

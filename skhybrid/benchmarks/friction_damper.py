@@ -61,8 +61,12 @@ def band_friction(x, u, *, xp, gap, sigma, Fc, **params):
 
 
 def band_friction_output(x, *, xp, offset, **params):
-    """The load cell: the friction force plus an offset."""
-    return x[:, 1:2] + offset
+    """The load cell: the friction force plus an offset.
+
+    One value per row (a 1-D column), so that an ``offset`` given one value
+    per row (the parameter sets of a batched Jacobian) adds row by row.
+    """
+    return x[:, 1] + offset
 
 
 def _band_guess(outputs, inputs):

@@ -72,6 +72,71 @@ def _is_stable(a):
     return bool(np.all(np.abs(np.roots(a)) < 1))
 
 
+def _bounded(r):
+    """Residuals with a run that blows up made large and finite, not inf or NaN."""
+    r = np.where(np.isfinite(r), r, NON_FINITE_RESIDUAL)
+    return np.clip(r, -NON_FINITE_RESIDUAL, NON_FINITE_RESIDUAL)
+
+
+def _delayed(z, k):
+    """``z`` delayed by ``k`` samples along its first axis (zeros before)."""
+    if k == 0:
+        return z
+    out = np.zeros_like(z)
+    out[k:] = z[:-k]
+    return out
+
+
+def _sensitivities(a1, b1, a2, b2, coef, knots, u, free_b2):
+    """Free run over ``u`` from rest and its derivatives in the refined coefficients.
+
+    Forward-mode differentiation of the block model, one pass over the record:
+    each derivative of a filter's output is itself a filtered signal (the
+    derivative of ``x = B1(q) / A1(q) u`` in ``a1[k]`` is ``-q^-k / A1(q) x``,
+    in ``b1[j, k]`` ``q^-k / A1(q) u_j``), carried through the spline by its
+    slope and through ``G2`` by one more filter. Every column is filtered at
+    once (``lfilter`` along the time axis), so the Jacobian costs a few free
+    runs, not one per coefficient.
+
+    Returns
+    -------
+    y : ndarray of shape (n_times,)
+        The free run, as :meth:`WienerHammersteinModel._run` gives it.
+    J : ndarray of shape (n_times, n_coefficients)
+        Its derivatives in the order of the refinement's vector: ``a1[1:]``,
+        ``b1`` (row by row), ``a2[1:]``, ``b2[free_b2]``, ``coef``.
+    """
+    n1, n2 = len(a1) - 1, len(a2) - 1
+    lo, hi = knots[3], knots[-4]
+    with np.errstate(all="ignore"):
+        x = WienerHammersteinModel._first_filter(a1, b1, u)
+        x_past = lfilter([1.0], a1, x)
+        w = lfilter([1.0], a1, u, axis=0)
+        dx = [-_delayed(x_past, k) for k in range(1, n1 + 1)]
+        dx += [
+            _delayed(w[:, j], k) for j in range(b1.shape[0]) for k in range(b1.shape[1])
+        ]
+        inside = np.clip(x, lo, hi)
+        spline = BSpline(knots, coef, 3)
+        slope = spline.derivative()(inside)  # the linear continuation's too
+        v = WienerHammersteinModel._nonlinearity(x, knots, coef)
+        # The spline's value in each coefficient: its basis at x, continued
+        # linearly beyond the end knots as the spline is.
+        basis = BSpline.design_matrix(inside, knots, 3).toarray()
+        basis_slope = BSpline(knots, np.eye(len(coef)), 3).derivative()
+        basis += np.where(x < lo, x - lo, 0.0)[:, None] * basis_slope(lo)[None, :]
+        basis += np.where(x > hi, x - hi, 0.0)[:, None] * basis_slope(hi)[None, :]
+        y = lfilter(b2, a2, v)
+        v_past, y_past = lfilter([1.0], a2, v), lfilter([1.0], a2, y)
+        inner = np.column_stack([slope[:, None] * np.column_stack(dx), basis])
+        inner = lfilter(b2, a2, inner, axis=0)
+        columns = [inner[:, : len(dx)]]
+        columns += [-_delayed(y_past, k)[:, None] for k in range(1, n2 + 1)]
+        columns += [_delayed(v_past, int(k))[:, None] for k in free_b2]
+        columns.append(inner[:, len(dx) :])
+    return y, np.concatenate(columns, axis=1)
+
+
 class WienerHammersteinModel(
     TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
 ):
@@ -354,10 +419,21 @@ class WienerHammersteinModel(
                 (self._run(*unpack(theta), knots, u) - y)[transient:]
                 for u, y in zip(U, Y, strict=True)
             ]
-            r = np.concatenate(parts)
-            # A run that blows up gets large finite residuals, not inf or NaN.
-            r = np.where(np.isfinite(r), r, NON_FINITE_RESIDUAL)
-            return np.clip(r, -NON_FINITE_RESIDUAL, NON_FINITE_RESIDUAL)
+            return _bounded(np.concatenate(parts))
+
+        def jacobian(theta):
+            a1_, b1_, a2_, b2_, coef_ = unpack(theta)
+            parts = []
+            for u, y in zip(U, Y, strict=True):
+                out, J = _sensitivities(a1_, b1_, a2_, b2_, coef_, knots, u, free_b2)
+                r = (out - y)[transient:]
+                J = J[transient:]
+                # Where the residual is bounded (a run that blows up) it does
+                # not move with the parameters.
+                J[~(np.abs(r) < NON_FINITE_RESIDUAL)] = 0.0
+                parts.append(J)
+            J = np.concatenate(parts)
+            return np.where(np.isfinite(J), J, 0.0)
 
         theta0 = np.concatenate([a1[1:], b1.ravel(), a2[1:], b2[free_b2], coef])
         if self.max_nfev == 0:
@@ -366,7 +442,12 @@ class WienerHammersteinModel(
         n_residuals = sum(len(y) - transient for y in Y)
         method = "lm" if n_residuals >= len(theta0) else "trf"
         fit = least_squares(
-            residuals, theta0, method=method, x_scale="jac", max_nfev=self.max_nfev
+            residuals,
+            theta0,
+            jac=jacobian,
+            method=method,
+            x_scale="jac",
+            max_nfev=self.max_nfev,
         )
         params = unpack(fit.x)
         if not (_is_stable(params[0]) and _is_stable(params[2])):

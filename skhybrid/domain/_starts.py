@@ -20,6 +20,7 @@ from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 
+from skhybrid.domain._lockstep import run_in_lockstep
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
 
 #: Errors of a short fit that drop its start instead of stopping the fit.
@@ -122,16 +123,28 @@ def best_short_fit(models, method, *args):
         None where every short fit failed (an error in ``START_ERRORS``) or
         ended with a cost that is not finite.
     """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.simplefilter("ignore", IdentifiabilityWarning)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if method == "fit_simulation" and len(models) > 1:
+            # The short fits run side by side, their free runs in one batch.
+            outcomes = run_in_lockstep(
+                models, lambda model: getattr(model, method)(*args)
+            )
+        else:
+            outcomes = []
+            for model in models:
+                try:
+                    outcomes.append(getattr(model, method)(*args))
+                except START_ERRORS as exc:
+                    outcomes.append(exc)
     best, best_cost = None, np.inf
-    for model in models:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            warnings.simplefilter("ignore", IdentifiabilityWarning)
-            warnings.simplefilter("ignore", RuntimeWarning)
-            try:
-                getattr(model, method)(*args)
-            except START_ERRORS:
+    for model, outcome in zip(models, outcomes, strict=True):
+        if isinstance(outcome, BaseException):
+            if isinstance(outcome, START_ERRORS):
                 continue
+            raise outcome
         result = getattr(model, "result_", None)
         cost = 0.0 if result is None else float(result.cost)
         if np.isfinite(cost) and cost < best_cost:

@@ -184,14 +184,20 @@ default=None
         Most residual evaluations.
     n_steps : int, default=1
         Time steps per row of ``X`` (the window of ``fit`` and ``predict``).
-    vectorized : bool, default=False
+    vectorized : bool or "auto", default="auto"
         Whether ``rhs`` (and ``output``) broadcast parameter values given as
         arrays of shape ``(n,)``, one value per row of ``x`` (plain elementwise
         arithmetic does). Then ``fit_simulation`` simulates the perturbed
-        parameter sets of its finite-difference Jacobians in one batch
-        (``jac="2-point"``, ``objective="mse"``): one pass over the records per
-        Jacobian instead of one per parameter, which matters where a record is
-        long and the model cheap. Needs scalar parameters.
+        parameter sets of its finite-difference Jacobians (``jac="2-point"``
+        or ``"3-point"``, any ``objective``) in one batch, together with the
+        residuals at the point they are taken at: one pass over the records
+        per accepted step instead of one per parameter and one more for the
+        residuals, which matters where a record is long and the model cheap
+        (a pass is a loop over its time steps). ``"auto"`` finds out at the
+        start of each fit by simulating the first record's first samples at
+        two parameter sets, batched and one by one, and batches where they
+        agree (``batched_jacobian_`` says which); ``False`` never batches.
+        Needs scalar parameters.
     noise_model : object or None, default=None
         An unfitted noise model, :class:`~skhybrid.hybrid.GaussianNoise` or
         :class:`~skhybrid.hybrid.AutoRegressiveNoise` (or anything with
@@ -242,6 +248,9 @@ default=None
         Covariance of the free parameters, in the order of ``free_params_``.
     result_ : OptimizeResult or None
         What ``least_squares`` returned.
+    batched_jacobian_ : bool
+        Whether ``fit_simulation`` simulated its Jacobians' parameter sets in
+        one batch (see ``vectorized``). Set by ``fit_simulation`` only.
     n_features_in_ : int
         Number of columns of a row of ``X``.
     n_outputs_ : int
@@ -302,7 +311,7 @@ default=None
         "n_init": [Interval(Integral, 1, None, closed="left"), None],
         "estimate_observed": ["boolean"],
         "identifiability_tol": [Interval(Real, 0, 1, closed="left")],
-        "vectorized": ["boolean"],
+        "vectorized": ["boolean", StrOptions({"auto"})],
         "noise_model": [HasMethods(["fit", "sample"]), None],
         "continuation": [dict, None],
         "starts": [list, tuple, None],
@@ -337,7 +346,7 @@ default=None
         f_scale=1.0,
         max_nfev=None,
         n_steps=1,
-        vectorized=False,
+        vectorized="auto",
         noise_model=None,
         continuation=None,
         starts=None,

@@ -7,6 +7,7 @@ before a fit: several ``starts`` and the ``continuation``. A mixin of
 """
 
 import copy
+import warnings
 
 import numpy as np
 
@@ -119,7 +120,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         mask = np.arange(T)[None, :] < lengths[:, None]
         y_flat = Y[mask]
         init = self._initial_params(start=start)
-        if self.vectorized and any(np.ndim(v) for v in init.values()):
+        if self.vectorized is True and any(np.ndim(v) for v in init.values()):
             raise ValueError(
                 "vectorized=True broadcasts one value of each parameter per row; "
                 "every parameter must be a scalar, got array-valued "
@@ -133,7 +134,10 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 f"number of samples, {y_flat.shape[0]}."
             )
         self._records = (U, Y, mask, structure)
+        self._speculated = None
         try:
+            self._batch = self._broadcasts(spec)
+            self.batched_jacobian_ = self._batch
             theta, result = self._least_squares(U, y_flat, spec)
             self.result_ = result
             self.params_ = spec.to_dict(theta)
@@ -142,7 +146,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             )
             Y_sim, x0 = self._simulate_records(U, Y, self.params_, structure)
         finally:
-            del self._records
+            del self._records, self._batch, self._speculated
         self._check_fitted_run(Y_sim, Y, mask, lengths)
         self.initial_states_ = x0
         err = (Y_sim - Y)[mask]
@@ -180,34 +184,66 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                     "(bounds), or shorten the records."
                 )
 
-    def _simulate_records(self, U, Y, params, structure):
+    def _simulate_records(self, U, Y, params, structure, per_row=()):
         n_init = min(self._init_window, Y.shape[1])
-        x0 = self._estimate_x0(Y[:, :n_init], U[:, :n_init], params, structure)
+        x0 = self._estimate_x0(
+            Y[:, :n_init], U[:, :n_init], params, structure, per_row=per_row
+        )
         with np.errstate(all="ignore"):
             out, _ = self._run(x0, U, params, structure[1], np)
         return out, x0
 
     def _record_residuals(self, theta, spec):
+        """The records' free-run residuals at ``theta``, penalised where diverged.
+
+        Where the parameter sets are simulated in one batch, the steps of the
+        Jacobian at ``theta`` are simulated with it: ``least_squares`` asks for
+        the Jacobian at every step it accepts, and the batch costs little more
+        than one run where a run is a loop over time steps. The Jacobian then
+        reads them (:meth:`_batched_jacobian`) instead of simulating again.
+        """
+        theta = np.asarray(theta, dtype=float)
         U, Y, mask, structure = self._records
+        cached = self._speculation(theta)
+        if cached is not None:
+            return cached[0].reshape(-1, Y.shape[2])
+        if getattr(self, "_batch", False):
+            sets, _ = _difference_sets(theta, spec, central=self.jac == "3-point")
+            R = self._record_residuals_batch(sets, spec)
+            self._speculated = (theta.copy(), R)
+            return R[0].reshape(-1, Y.shape[2])
         params = spec.to_dict(theta)
         out, _ = self._simulate_records(U, Y, params, structure)
         with np.errstate(all="ignore"):
             r = (Y - out)[mask]
         return _penalised(r, Y[mask])[0]
 
+    def _speculation(self, theta):
+        """The batch simulated with ``theta`` (its residuals first), or None."""
+        cached = getattr(self, "_speculated", None)
+        if cached is not None and np.array_equal(cached[0], theta):
+            return cached[1]
+        return None
+
     def _residual_vector(self, X, y, spec, xp):
         if getattr(self, "_records", None) is None:
             return super()._residual_vector(X, y, spec, xp)
 
         def residuals(theta):
-            return objective_residuals(
-                self._record_residuals(np.asarray(theta, dtype=float), spec),
-                self.objective,
-                lags=self.ljung_box_lags,
-                ljung_box_weight=self.ljung_box_weight,
+            return self._objective(
+                self._record_residuals(np.asarray(theta, dtype=float), spec)
             )
 
         return residuals
+
+    def _objective(self, r):
+        """The objective's residual vector of the records' residuals ``r``."""
+        return objective_residuals(
+            r,
+            self.objective,
+            lags=self.ljung_box_lags,
+            ljung_box_weight=self.ljung_box_weight,
+        )
 
     def _raw_jacobian(self, X, y, spec, theta):
         if getattr(self, "_records", None) is None:
@@ -218,7 +254,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 return np.reshape(self._record_residuals(t, spec), -1)
 
             base = raw(theta)
-            if self._batched_records():
+            if getattr(self, "_batch", False):
                 J = _central_differences_batch(
                     lambda sets: self._record_residuals_batch(sets, spec),
                     theta,
@@ -228,16 +264,59 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 J = _central_differences(raw, theta, spec, base.size)
         return J, base
 
-    def _batched_records(self):
-        """Whether the records' Jacobians are simulated in one batch."""
-        return (
-            self.vectorized
-            and getattr(self, "_records", None) is not None
-            and self.jac == "2-point"
-        )
+    def _broadcasts(self, spec):
+        """Whether parameter sets can be simulated in one batch, one set per row.
+
+        ``vectorized=True`` says so and ``False`` says not; ``"auto"`` finds out
+        by simulating the start of the first record at two parameter sets both
+        ways, one batch with a value per row and each set on its own, and
+        batching where both give the same outputs (an ``rhs`` of plain
+        elementwise arithmetic does; one that raises on array-valued
+        parameters, or mixes rows, does not).
+        """
+        if self.vectorized is not True and self.vectorized != "auto":
+            return False
+        if self.jac == "autograd" or spec.n_free == 0:
+            return False
+        if self.vectorized is True:
+            return True
+        if any(np.ndim(v) for v in spec.to_dict(spec.x0).values()):
+            return False
+        U, Y, mask, structure = self._records
+        n = min(Y.shape[1], self._init_window + 10)
+        probe = (U[:1, :n], Y[:1, :n], mask[:1, :n], structure)
+        thetas = np.vstack([spec.x0, _nudged(spec.x0, spec)])
+        records, self._records = self._records, probe
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                batch = self._simulate_sets(thetas, spec)
+                self._batch = False
+                alone = [self._record_residuals(t, spec).ravel() for t in thetas]
+            return bool(
+                np.all(np.isfinite(batch))
+                and np.allclose(batch, np.vstack(alone), rtol=1e-9, atol=0.0)
+            )
+        except Exception:  # noqa: BLE001 - any failure means "not vectorized"
+            return False
+        finally:
+            self._records = records
 
     def _record_residuals_batch(self, thetas, spec):
-        """Residuals ``(n_sets, n_residuals)`` of parameter sets ``thetas``."""
+        """Residuals ``(n_sets, n_residuals)`` of parameter sets ``thetas``.
+
+        A fit run in lockstep with others (``_lockstep``, the short fits of
+        ``starts``) has its sets simulated in one batch with theirs.
+        """
+        lockstep = getattr(self, "_lockstep", None)
+        if lockstep is None:
+            return self._simulate_sets(thetas, spec)
+        return lockstep.evaluate(
+            id(self), thetas, lambda sets: self._simulate_sets(sets, spec)
+        )
+
+    def _simulate_sets(self, thetas, spec):
+        """Residuals ``(n_sets, n_residuals)`` of ``thetas``, in one simulation."""
         U, Y, mask, structure = self._records
         n_sets, n_rec = len(thetas), U.shape[0]
         per_set = [spec.to_dict(t) for t in thetas]
@@ -250,41 +329,82 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             for name in per_set[0]
         }
         U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
-        out, _ = self._simulate_records(U_all, Y_all, params, structure)
+        out, _ = self._simulate_records(
+            U_all, Y_all, params, structure, per_row=spec.free
+        )
         with np.errstate(all="ignore"):
             r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
         r = r.reshape(n_sets, -1)
         return _penalised(r, Y[mask])[0]
 
     def _batched_jacobian(self, spec):
-        if not self._batched_records() or self.objective != "mse":
+        if getattr(self, "_records", None) is None:
             return None
+        if not getattr(self, "_batch", False):
+            return None
+        central = self.jac == "3-point"
 
         def jac(theta):
             theta = np.asarray(theta, dtype=float)
-            size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
-            step = np.sqrt(np.finfo(float).eps) * size
-            # Step backwards where the upper bound is too close.
-            step = np.where(theta + step > spec.upper, -step, step)
-            sets = np.vstack([theta, theta + np.diag(step)])
-            R = self._record_residuals_batch(sets, spec)
-            J = ((R[1:] - R[0]) / step[:, None]).T
-            # objective="mse" divides the residuals by the root of their number.
-            return J / np.sqrt(R.shape[1])
+            sets, combine = _difference_sets(theta, spec, central=central)
+            R = self._speculation(theta)
+            if R is None:
+                R = self._record_residuals_batch(sets, spec)
+            if self.objective == "mse":
+                # objective="mse" divides the residuals by the root of their number.
+                return combine(R) / np.sqrt(R.shape[1])
+            n_outputs = self._records[1].shape[2]
+            return combine(
+                np.vstack([self._objective(r.reshape(-1, n_outputs)) for r in R])
+            )
 
         return jac
 
 
-def _central_differences_batch(raw_batch, theta, spec):
-    """:func:`_central_differences` with every step simulated in one batch."""
+def _nudged(theta, spec):
+    """``theta`` moved by a per mille of its size, inside the bounds."""
     size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+    up = np.minimum(theta + 1e-3 * size, spec.upper)
+    return np.where(up > theta, up, np.maximum(theta - 1e-3 * size, spec.lower))
+
+
+def _difference_sets(theta, spec, central):
+    """The parameter sets of a finite-difference Jacobian at ``theta``, and its rule.
+
+    ``theta`` is the first set; forward differences (``central=False``, the
+    step backwards where the upper bound is too close) add one set per
+    parameter, central differences two, each step kept inside the bounds.
+    ``combine(R)`` turns the sets' residuals ``R`` (one row per set) into the
+    Jacobian ``(n_residuals, n_parameters)``; a parameter pinned between its
+    bounds gets a zero column.
+    """
+    size = np.maximum(np.abs(theta), 1e-3 * spec.scale)
+    eye = np.eye(theta.size)
+    if not central:
+        step = np.sqrt(np.finfo(float).eps) * size
+        step = np.where(theta + step > spec.upper, -step, step)
+        sets = np.vstack([theta, theta + np.diag(step)])
+
+        def combine(R):
+            return ((R[1:] - R[0]) / step[:, None]).T
+
+        return sets, combine
     step = np.finfo(float).eps ** (1 / 3) * size
     hi = np.maximum(np.minimum(step, spec.upper - theta), 0.0)
     lo = np.maximum(np.minimum(step, theta - spec.lower), 0.0)
-    eye = np.eye(theta.size)
-    sets = np.vstack([theta + eye * hi[:, None], theta - eye * lo[:, None]])
-    R = raw_batch(sets)
+    sets = np.vstack([theta, theta + eye * hi[:, None], theta - eye * lo[:, None]])
     width = hi + lo
-    J = (R[: theta.size] - R[theta.size :]) / np.where(width > 0, width, 1.0)[:, None]
-    J[width == 0] = 0.0
-    return J.T
+
+    def combine(R):
+        n = theta.size
+        J = (R[1 : n + 1] - R[n + 1 :]) / np.where(width > 0, width, 1.0)[:, None]
+        J[width == 0] = 0.0
+        return J.T
+
+    return sets, combine
+
+
+def _central_differences_batch(raw_batch, theta, spec):
+    """:func:`_central_differences` with every step simulated in one batch."""
+    sets, combine = _difference_sets(theta, spec, central=True)
+    return combine(raw_batch(sets))

@@ -51,7 +51,9 @@ class _InitialStateMixin:
                 columns.append(column)
         return xp.stack(columns, axis=1)
 
-    def _estimate_x0(self, Y, U, params, structure, estimate_observed=None):
+    def _estimate_x0(
+        self, Y, U, params, structure, estimate_observed=None, per_row=None
+    ):
         """Least-squares initial states ``(n, n_states)`` of windows ``Y``, ``U``.
 
         ``Y`` is ``(n, k, n_outputs)`` measured outputs and ``U`` ``(n, k,
@@ -61,7 +63,9 @@ class _InitialStateMixin:
         :func:`~skhybrid.simulation.fit_initial_states`, the package's one
         initial-state solver, separately for every window; the perturbed
         windows are simulated in one batch. ``estimate_observed`` overrides the
-        parameter of that name.
+        parameter of that name. ``per_row`` names the parameters given one
+        value per window (a batch of parameter sets); None: those of shape
+        ``(n,)`` where ``vectorized=True``.
         """
         n_states, observed, guess = structure
         if callable(guess):
@@ -79,13 +83,14 @@ class _InitialStateMixin:
             return x0
         n = Y.shape[0]
         target = Y.reshape(n, -1)
-        # Parameters given one value per window (vectorized=True) follow their
-        # window into every batch of candidates.
-        per_row = {
-            name
-            for name, v in params.items()
-            if self.vectorized and np.ndim(v) == 1 and np.shape(v)[0] == n
-        }
+        # Parameters given one value per window (a batch of parameter sets)
+        # follow their window into every batch of candidates.
+        if per_row is None:
+            per_row = {
+                name
+                for name, v in params.items()
+                if self.vectorized is True and np.ndim(v) == 1 and np.shape(v)[0] == n
+            }
 
         def residuals(Z, index):
             X0 = x0[index]

@@ -35,9 +35,15 @@ class _IntegratorMixin:
         """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""
         rhs = self.rhs
         kwargs = dict(params, xp=xp) if self._takes_xp(rhs) else dict(params)
+        # The shape is checked at the first call: a free run calls f once per
+        # step (or stage) on states of one shape, and the check would cost a
+        # tenth of a cheap model's step.
+        checked = []
 
         def f(x, u):
             out = rhs(x, u, **kwargs)
+            if checked and checked[0] == x.shape:
+                return out
             shape = tuple(int(d) for d in getattr(out, "shape", ()))
             if shape != tuple(x.shape):
                 name = getattr(rhs, "__name__", repr(rhs))
@@ -46,6 +52,7 @@ class _IntegratorMixin:
                     f"{tuple(x.shape)}; it must return one value per state and "
                     "sample, for example xp.stack([...], axis=1)."
                 )
+            checked[:] = [x.shape]
             return out
 
         return f

@@ -153,3 +153,40 @@ def test_simulate_takes_every_container(fitted):
     as_list = fitted.simulate(list(U), list(Y0))
     assert_allclose(as_list[1], batch[1])
     assert_allclose(fitted.simulate(U[0], Y0[0]), batch[0])
+
+
+def test_the_refinement_jacobian_is_the_finite_difference_one():
+    # The forward-mode sensitivities (one pass of filters over the record)
+    # match central differences of the free run in every coefficient, with
+    # two inputs, a fixed G2 coefficient and samples beyond the spline's ends.
+    from scipy.optimize._numdiff import approx_derivative
+
+    from skhybrid.domain._block import _sensitivities
+
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((600, 2))
+    a1, b1 = np.r_[1.0, -0.5, 0.2], 0.3 * rng.standard_normal((2, 3))
+    a2, b2 = np.r_[1.0, -1.0, 0.5], np.r_[0.2, 1.0, 0.3]
+    knots = np.r_[[-0.8] * 3, np.linspace(-0.8, 0.8, 8), [0.8] * 3]
+    coef, free_b2 = rng.standard_normal(10), np.array([0, 2])
+
+    def unpack(theta):
+        b2_ = b2.copy()
+        b2_[free_b2] = theta[10:12]
+        return (
+            np.r_[1.0, theta[:2]],
+            theta[2:8].reshape(2, 3),
+            np.r_[1.0, theta[8:10]],
+            b2_,
+            theta[12:],
+        )
+
+    theta = np.concatenate([a1[1:], b1.ravel(), a2[1:], b2[free_b2], coef])
+    model = WienerHammersteinModel()
+    y, J = _sensitivities(*unpack(theta), knots, u, free_b2)
+    assert np.abs(model._first_filter(a1, b1, u)).max() > 0.8  # beyond the knots
+    assert_allclose(y, model._run(*unpack(theta), knots, u))
+    expected = approx_derivative(
+        lambda t: model._run(*unpack(t), knots, u), theta, method="3-point"
+    )
+    assert_allclose(J, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())

@@ -203,3 +203,35 @@ def test_the_chosen_start_is_handed_to_the_final_fit_as_a_value(record, monkeypa
     assert start["r"] == START["r"] and abs(start["w"] - 0.3) < 0.05
     assert not [a for a in attributes if "start" in a and not a.startswith("starts")]
     assert fitted.params_["w"] == pytest.approx(0.3, abs=1e-3)
+
+
+def test_the_short_fits_run_in_lockstep_as_one_batch(record, monkeypatch):
+    # The starts' short fits run side by side and their free runs are
+    # simulated together: fewer simulations than one after another, and the
+    # same fit as with the starts' batches apart.
+    from skhybrid.domain import _starts
+
+    u, y = record
+    calls = {"n": 0, "rows": []}
+    simulate = StateSpaceModel._simulate_sets
+
+    def counted(self, thetas, spec):
+        calls["n"] += 1
+        calls["rows"].append(len(thetas))
+        return simulate(self, thetas, spec)
+
+    monkeypatch.setattr(StateSpaceModel, "_simulate_sets", counted)
+    model = _model(START, starts=STARTS, starts_nfev=5)
+    together = _fit(model, u, y)
+    n_together, rows = calls["n"], calls["rows"]
+
+    def one_by_one(models, fit):
+        return [fit(m) for m in models]
+
+    calls.update(n=0, rows=[])
+    monkeypatch.setattr(_starts, "run_in_lockstep", one_by_one)
+    apart = _fit(_model(START, starts=STARTS, starts_nfev=5), u, y)
+    # Four short fits batched: some simulations carry several fits' sets.
+    assert n_together < calls["n"]
+    assert max(rows) > max(calls["rows"])
+    assert together.params_["w"] == pytest.approx(apart.params_["w"], rel=1e-9)

@@ -348,3 +348,113 @@ def test_wrong_number_of_outputs_raises():
     )
     with pytest.raises(ValueError, match="observed"):
         model.fit_simulation(np.zeros((30, 1)), np.zeros((30, 2)))
+
+
+def _oscillator_records(seed=4):
+    rng = np.random.default_rng(seed)
+    U = np.repeat(rng.uniform(-1, 1, (3, 15)), 10, axis=1)[..., None]
+    truth = _known(
+        damped,
+        {"omega": 2.0, "zeta": 0.2},
+        state_names=["x", "v"],
+        observed=["x"],
+        dt=0.1,
+        n_substeps=2,
+    )
+    Y = truth.simulate_from_state(U, [[0.4, -0.3], [0.0, 0.5], [-0.2, 0.0]])
+    return U, Y + 1e-3 * rng.normal(size=Y.shape)
+
+
+def _oscillator(rhs=damped, **kwargs):
+    return StateSpaceModel(
+        rhs,
+        {"omega": 1.7, "zeta": 0.3},
+        state_names=["x", "v"],
+        observed=["x"],
+        dt=0.1,
+        n_substeps=2,
+        n_init=10,
+        **kwargs,
+    )
+
+
+def scalar_only(x, u, *, xp, omega, zeta):
+    """``damped``, written so that it takes scalar parameters only."""
+    omega, zeta = float(omega), float(zeta)
+    return damped(x, u, xp=xp, omega=omega, zeta=zeta)
+
+
+def mixing_rows(x, u, *, xp, omega, zeta):
+    """``damped`` plus a term that mixes the rows of a batch (zero for one set)."""
+    out = damped(x, u, xp=xp, omega=omega, zeta=zeta)
+    return out + 0.1 * (xp.mean(omega) - omega) * out
+
+
+@pytest.mark.parametrize(
+    "rhs, batched", [(damped, True), (scalar_only, False), (mixing_rows, False)]
+)
+def test_auto_batches_an_rhs_that_broadcasts_and_fits_the_same(rhs, batched):
+    # vectorized="auto" (the default) batches the Jacobians' parameter sets
+    # where the rhs broadcasts them, and gives the fit of the unbatched one.
+    U, Y = _oscillator_records()
+    auto = _oscillator(rhs).fit_simulation(U, Y)
+    alone = _oscillator(rhs, vectorized=False).fit_simulation(U, Y)
+    assert auto.batched_jacobian_ is batched
+    assert alone.batched_jacobian_ is False
+    for name in ("omega", "zeta"):
+        assert auto.params_[name] == pytest.approx(alone.params_[name], rel=1e-5)
+        assert auto.params_std_[name] == pytest.approx(
+            alone.params_std_[name], rel=1e-3
+        )
+
+
+def test_auto_refuses_an_rhs_whose_batch_differs_from_its_sets_alone():
+    # An output that broadcasts a per-row offset across the rows ((n, 1) +
+    # (n,) is (n, n)) gives other outputs in a batch than one set at a time:
+    # the probe sees it and the fit simulates each set on its own.
+    def crossed(x, *, xp, omega, zeta):
+        return x[:, 0:1] + 0.0 * omega + 0.0 * xp.reshape(xp.asarray(zeta), (1, -1))
+
+    U, Y = _oscillator_records()
+    model = StateSpaceModel(
+        damped,
+        {"omega": 1.7, "zeta": 0.3},
+        state_names=["x", "v"],
+        output=crossed,
+        dt=0.1,
+        n_substeps=2,
+        n_init=10,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit_simulation(U, Y)
+    assert model.batched_jacobian_ is False
+
+
+@pytest.mark.parametrize("jac", ["2-point", "3-point"])
+@pytest.mark.parametrize("objective", ["mse", "mse+ljung_box"])
+def test_the_jacobian_steps_are_simulated_with_the_residuals(jac, objective):
+    # Every residual evaluation simulates the Jacobian's steps at its point in
+    # the same batch, so a Jacobian costs no simulation of its own: the
+    # simulations are the evaluations (and the probe and standard errors),
+    # not evaluations plus Jacobians; the fit is the unbatched one's.
+    U, Y = _oscillator_records()
+    calls = {"n": 0}
+    simulate = StateSpaceModel._simulate_sets
+
+    def counted(self, thetas, spec):
+        calls["n"] += 1
+        return simulate(self, thetas, spec)
+
+    kwargs = {"jac": jac, "objective": objective, "ljung_box_lags": 5}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(StateSpaceModel, "_simulate_sets", counted)
+        batched = _oscillator(**kwargs).fit_simulation(U, Y)
+    alone = _oscillator(vectorized=False, **kwargs).fit_simulation(U, Y)
+    result = batched.result_
+    assert result.njev > 1
+    # One batch per evaluation (+1: the start's scale), the probe and the
+    # standard errors' central differences.
+    assert calls["n"] <= result.nfev + 3
+    for name in ("omega", "zeta"):
+        assert batched.params_[name] == pytest.approx(alone.params_[name], rel=1e-5)

@@ -1,0 +1,136 @@
+"""Several fits in lockstep: their simulations gathered into one batch.
+
+A simulation-error fit spends its time in free runs, loops over the time steps
+of the records whose cost hardly grows with the rows simulated at once. Fits
+of the same records that differ only in where they start (the short fits of a
+model's ``starts``) therefore run side by side in threads: each asks for the
+residuals of its parameter sets and waits; once every fit still running has
+asked, the last to ask simulates all the sets in one batch and hands each fit
+its rows. Which fits share a batch does not depend on the threads' timing (a
+batch waits for every fit still running), so the results do not either.
+"""
+
+import contextvars
+import itertools
+import threading
+
+import numpy as np
+
+__all__ = ["Lockstep", "run_in_lockstep"]
+
+
+class Lockstep:
+    """Gather the parameter sets of ``n_members`` fits into one batched evaluation.
+
+    Parameters
+    ----------
+    n_members : int
+        Fits taking part; each calls :meth:`evaluate` for every batch it needs
+        and :meth:`leave` once when it stops (finished or failed).
+    """
+
+    def __init__(self, n_members):
+        self._cond = threading.Condition()
+        self._live = n_members
+        self._pending = {}
+        self._results = {}
+
+    def evaluate(self, member, sets, simulate):
+        """The residuals of ``member``'s parameter sets, simulated with the others'.
+
+        Parameters
+        ----------
+        member : hashable
+            Which fit asks.
+        sets : ndarray of shape (n_sets, n_params)
+            Its parameter sets.
+        simulate : callable
+            ``simulate(sets) -> (n_sets, n_residuals)`` for any sets of the
+            members (they fit the same records, so any member's will do).
+
+        Returns
+        -------
+        residuals : ndarray of shape (n_sets, n_residuals)
+        """
+        with self._cond:
+            self._pending[member] = (sets, simulate)
+            if len(self._pending) >= self._live:
+                self._run_batch()
+            while member not in self._results:
+                self._cond.wait()
+            result = self._results.pop(member)
+        if isinstance(result, BaseException):
+            raise result
+        return result
+
+    def leave(self):
+        """Mark one member as stopped; the others no longer wait for it."""
+        with self._cond:
+            self._live -= 1
+            if self._pending and len(self._pending) >= self._live:
+                self._run_batch()
+
+    def _run_batch(self):
+        """Simulate every pending request in one batch (the lock is held)."""
+        members = list(self._pending)
+        requests = [self._pending.pop(m) for m in members]
+        sizes = [len(sets) for sets, _ in requests]
+        try:
+            R = requests[-1][1](np.vstack([sets for sets, _ in requests]))
+            bounds = np.cumsum([0, *sizes])
+            results = [R[a:b] for a, b in itertools.pairwise(bounds)]
+        except Exception:  # noqa: BLE001 - then each request on its own
+            results = []
+            for sets, simulate in requests:
+                try:
+                    results.append(simulate(sets))
+                except Exception as exc:  # noqa: BLE001 - raised in its member
+                    results.append(exc)
+        self._results.update(zip(members, results, strict=True))
+        self._cond.notify_all()
+
+
+def run_in_lockstep(models, fit):
+    """Run ``fit(model)`` for every model at once, their simulations batched.
+
+    Each model gets a shared :class:`Lockstep` as ``_lockstep`` for the time of
+    its fit (a :class:`~skhybrid.domain.StateSpaceModel` whose parameter sets
+    are simulated in batches asks it for them) and runs in a thread of its own,
+    in a copy of the caller's context (its progress hook included).
+
+    Parameters
+    ----------
+    models : sequence of object
+        The models, fitting the same records.
+    fit : callable
+        ``fit(model)``, run once per model.
+
+    Returns
+    -------
+    outcomes : list
+        Per model, what ``fit`` returned or the exception it raised.
+    """
+    lockstep = Lockstep(len(models))
+    outcomes = [None] * len(models)
+
+    def work(i, model):
+        model._lockstep = lockstep
+        try:
+            outcomes[i] = fit(model)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller
+            outcomes[i] = exc
+        finally:
+            model.__dict__.pop("_lockstep", None)
+            lockstep.leave()
+
+    threads = [
+        threading.Thread(
+            target=contextvars.copy_context().run, args=(work, i, model), daemon=True
+        )
+        for i, model in enumerate(models)
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return outcomes

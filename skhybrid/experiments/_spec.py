@@ -24,6 +24,7 @@ from skhybrid.experiments._protocol import (
     refuse_one_step,
 )
 from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
+from skhybrid.utils._validation import first_not_finite
 
 __all__ = ["SystemSpec", "as_records", "records_digest"]
 
@@ -108,6 +109,10 @@ def _frame_dt(frame, where):
     return float(steps.mean())
 
 
+def _names_fit(names, array):
+    return isinstance(names, (list, tuple)) and len(names) == array.shape[1]
+
+
 def as_records(records, *, inputs=None, outputs=None, name="records", one=False):
     """Records in any of the spec's forms as lists of 2-D float arrays.
 
@@ -169,8 +174,17 @@ def as_records(records, *, inputs=None, outputs=None, name="records", one=False)
                 f"{where} must hold aligned inputs and outputs of shape (n_times,) "
                 f"or (n_times, n); got {u.shape} and {y.shape}."
             )
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
-            raise ValueError(f"{where} holds NaN or infinite values.")
+        bad = first_not_finite(
+            {
+                "inputs": (u, inputs) if _names_fit(inputs, u) else u,
+                "outputs": (y, outputs) if _names_fit(outputs, y) else y,
+            }
+        )
+        if bad is not None:
+            raise ValueError(
+                f"{where} holds NaN or infinite values ({bad}); remove or "
+                "interpolate them, or cut the record there into two records."
+            )
         if U and (u.shape[1] != U[0].shape[1] or y.shape[1] != Y[0].shape[1]):
             raise ValueError(
                 f"{where} has {u.shape[1]} input and {y.shape[1]} output columns; "

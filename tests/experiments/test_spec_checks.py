@@ -162,6 +162,25 @@ def test_a_test_record_holding_nan_is_refused_before_any_fit():
         _spec(tests={"test": (u, y)})
 
 
+def test_a_nan_is_located_by_record_row_and_column():
+    u, y = _record(100, 1)
+    y = y.copy()
+    y[37] = np.nan
+    y[60] = np.inf
+    with pytest.raises(
+        ValueError,
+        match=r"records\[1\] holds NaN or infinite values \(the first at row 37, "
+        r"outputs column 0: nan; 2 in all\); remove or interpolate",
+    ):
+        _spec(records=[_record(), (u, y)])
+    frame = pd.DataFrame(
+        {"force": np.r_[np.zeros(12), np.nan, np.zeros(87)], "position": y[:, 0]},
+        index=pd.to_timedelta(np.arange(100) * 0.1, unit="s"),
+    )
+    with pytest.raises(ValueError, match=r"row 12, inputs column 0 \('force'\)"):
+        _spec(records=frame, inputs=["force"], outputs=["position"], dt=None)
+
+
 def test_test_records_of_callable_records_are_checked_when_read():
     u, y = _record(100, 1)
     spec = _spec(records=lambda: [_record()], tests={"test": (np.hstack([u, u]), y)})

@@ -286,6 +286,37 @@ def _check_hybrids(hybrids):
             )
 
 
+def _check_starts_values(physics, starts):
+    """Raise unless every start names the physics' parameters, finite, in bounds."""
+    params = physics.get_params(deep=False).get("params") or {}
+    bounds = physics.get_params(deep=False).get("bounds") or {}
+    for i, start in enumerate(starts):
+        for name, value in start.items():
+            where = f"physics_starts[{i}][{name!r}]"
+            if name not in params:
+                close = difflib.get_close_matches(str(name), list(params), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise ValueError(
+                    f"{where}: {name!r} is not a parameter of the physics{hint}; "
+                    f"its parameters are {sorted(params)}."
+                )
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, numbers.Real)
+                or not np.isfinite(value)
+            ):
+                raise ValueError(f"{where} must be a finite number; got {value!r}.")
+            if name in bounds:
+                low, high = bounds[name]
+                low = -np.inf if low is None else low
+                high = np.inf if high is None else high
+                if not low <= value <= high:
+                    raise ValueError(
+                        f"{where}={value!r} is outside the physics' bounds "
+                        f"[{low}, {high}] for {name!r}; start inside them."
+                    )
+
+
 def _check_takes_starts(physics):
     """Raise unless ``physics`` takes ``physics_starts``: its own ``starts``, unset."""
     if "starts" not in physics.get_params(deep=False):
@@ -518,6 +549,13 @@ class SystemSpec:
                 f"score_from_estimation_start={self.score_from_estimation_start!r}."
             )
         physics = self.physics
+        if isinstance(physics, type):
+            raise TypeError(
+                f"physics is the class {physics.__name__}, not a model: pass an "
+                f"unfitted instance, physics={physics.__name__}(...) with its "
+                "equations and starting parameters (see 'Model your own machine'), "
+                "or a callable physics(U, Y, dt) returning one."
+            )
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         if not is_factory and not (
             hasattr(physics, "fit") and hasattr(physics, "simulate")
@@ -540,6 +578,7 @@ class SystemSpec:
                 )
             if not is_factory:
                 _check_takes_starts(physics)
+                _check_starts_values(physics, starts)
         if (
             isinstance(self.starts_nfev, bool)
             or not isinstance(self.starts_nfev, numbers.Integral)
@@ -765,6 +804,7 @@ class SystemSpec:
         if not self.physics_starts:
             return base
         _check_takes_starts(base)  # a callable's physics is seen only now
+        _check_starts_values(base, self.physics_starts)
         # The spec's starts replace the physics' parameters: the first is the
         # model's params, the others its starts (StateSpaceModel's several starts).
         first, *others = self.physics_starts
@@ -811,6 +851,13 @@ class SystemSpec:
         if self.hybrids != "auto":
             return True
         physics = self.physics
+        if isinstance(physics, type):
+            raise TypeError(
+                f"physics is the class {physics.__name__}, not a model: pass an "
+                f"unfitted instance, physics={physics.__name__}(...) with its "
+                "equations and starting parameters (see 'Model your own machine'), "
+                "or a callable physics(U, Y, dt) returning one."
+            )
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         return is_factory or isinstance(physics, StateSpaceModel)
 

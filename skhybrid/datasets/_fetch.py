@@ -357,16 +357,20 @@ def _fetch(key, data_home, mirror):
         for name in still:
             (folder / name).unlink(missing_ok=True)
     if spec.sources:
-        where = "; ".join(
-            f"{name} from {_file_url(spec, spec.url, name, False)}"
-            for name in _valid(folder, spec)
+        missing = _valid(folder, spec)
+        # What to do first, on one line; then one line per file and the reason.
+        files = "\n".join(
+            f"  {name}  <-  {_file_url(spec, spec.url, name, False)}"
+            for name in missing
         )
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
         raise OSError(
-            f"could not fetch the {key} benchmark. Download each missing file "
-            f"yourself and put it into {folder} under its name (subfolder "
-            f"included): {where} (or pass the folder holding them to "
-            f"skhybrid.datasets.load_{key}). Why the download failed: "
-            f"{'; '.join(errors)}"
+            f"could not fetch the {key} benchmark (no connection?): download its "
+            f"{len(missing)} missing files below into {folder} under their names "
+            "(subfolders included), or pass the folder holding them to "
+            f"skhybrid.datasets.load_{key} (or `skhybrid run --data`).\n"
+            f"{files}\nWhy the download failed: {errors[0] if errors else '?'}"
+            f"{more}"
         )
     files = ", ".join(spec.sha256)
     source = spec.archive or next(iter(spec.sha256))

@@ -19,7 +19,7 @@ from nfoursid.utils import Utils
 
 from skhybrid.domain._state_space import StateSpaceModel
 from skhybrid.utils._array_api import is_torch
-from skhybrid.utils._validation import as_columns
+from skhybrid.utils._validation import as_columns, first_not_finite
 
 __all__ = ["linear_output", "linear_state_update", "subspace_state_space"]
 
@@ -112,8 +112,9 @@ def _as_record(name, values):
             "the longest record, then fit_simulation on all of them."
         )
     array = as_columns(values, name)
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name} holds NaN or infinite values.")
+    bad = first_not_finite({name: array})
+    if bad is not None:
+        raise ValueError(f"{name} holds NaN or infinite values ({bad}).")
     return array
 
 

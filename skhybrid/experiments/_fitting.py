@@ -1,10 +1,11 @@
 """What every fit of the pipeline shares: interrupts, reading parameters, segments."""
 
 import contextlib
-import itertools
 import signal
 
 import numpy as np
+
+from skhybrid.model_selection import SimulationFit
 
 __all__ = ["fit_segments", "interrupts_raise", "n_epochs", "physical_params"]
 
@@ -82,18 +83,21 @@ def interrupts_raise():
 
 
 def fit_segments(model, u, y, segment):
-    """Fit ``model`` by the simulation error over consecutive segments of records.
+    """Fit a clone of ``model`` by the simulation error over segments of records.
 
-    Multiple shooting: each segment of ``segment`` samples is a record whose
-    initial state is estimated from its own first ``model.n_init`` samples; the
-    remainder of a record (fewer than ``segment`` samples) joins its last
-    segment. A model without ``fit_simulation`` (any estimator that simulates)
-    is fitted with ``fit(u, y)`` on the records as they are.
+    The public path, :class:`~skhybrid.model_selection.SimulationFit`, which
+    :class:`~skhybrid.model_selection.SimulationSearchCV` takes for every
+    candidate with a ``fit_simulation``: each segment of ``segment`` samples is
+    a record whose initial state is estimated from its own first
+    ``model.n_init`` samples (multiple shooting); the remainder of a record
+    (fewer than ``segment`` samples) joins its last segment. A model without
+    ``fit_simulation`` (any estimator that simulates) is fitted with
+    ``fit(U, Y)`` on the records as they are.
 
     Parameters
     ----------
     model : StateSpaceModel or estimator
-        The model to fit (in place).
+        The model to fit; it is cloned, not changed.
     u, y : ndarray of shape (n_times, n_inputs) and (n_times, n_outputs), or \
 lists of them
         One record, or several.
@@ -103,28 +107,8 @@ lists of them
     Returns
     -------
     model : StateSpaceModel or estimator
-        The fitted model.
+        The fitted clone.
     """
     several = isinstance(u, (list, tuple))
     U, Y = (list(u), list(y)) if several else ([u], [y])
-    if not hasattr(model, "fit_simulation"):
-        return model.fit(U if several else u, Y if several else y)
-    n_init = getattr(model, "n_init", None)
-    if segment is not None and n_init is not None and segment <= n_init:
-        raise ValueError(
-            f"segment={segment} must exceed the model's n_init={model.n_init}: a "
-            "segment's first n_init samples only estimate its initial state."
-        )
-    pieces_U, pieces_Y = [], []
-    for u_i, y_i in zip(U, Y, strict=True):
-        n = len(y_i)
-        if segment is None or segment >= n:
-            bounds = [0, n]
-        else:
-            bounds = [i * segment for i in range(n // segment)] + [n]
-        for a, b in itertools.pairwise(bounds):
-            pieces_U.append(u_i[a:b])
-            pieces_Y.append(y_i[a:b])
-    if len(pieces_U) == 1:
-        return model.fit_simulation(pieces_U[0], pieces_Y[0])
-    return model.fit_simulation(pieces_U, pieces_Y)
+    return SimulationFit(model, segment=segment).fit(U, Y).estimator_

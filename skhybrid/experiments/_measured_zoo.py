@@ -307,7 +307,7 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
         hook = physics_hook(ctx.sink, f"{ctx.label or 'physics'} on {pieces}")
     with warnings.catch_warnings(record=True) as caught, fit_progress(hook):
         warnings.simplefilter("always")
-        fit_segments(model, U_model, Y, segment)
+        model = fit_segments(model, U_model, Y, segment)
     # A fit that stopped short of convergence is kept, and said so in the run's
     # record (fits.<model>.warnings, the report); other warnings stay quiet.
     for w in caught:

@@ -24,6 +24,7 @@ from skhybrid.experiments._registry import get_system
 from skhybrid.experiments._settings import RunSettings, check_settings
 from skhybrid.experiments._simulated import ExperimentResult
 from skhybrid.experiments._store import VALIDATION_RUNS
+from skhybrid.experiments._workers import worker_restarts_explained
 
 __all__ = ["ExperimentResult", "fit_zoos", "run_experiment"]
 
@@ -362,15 +363,18 @@ def fit_zoos(
                 yield delayed(_tagged)(index, call)
 
     try:
-        for stage in range(max(len(fit.stages) for fit in seeds)):
-            with _local_threads(backend, n_threads):
-                outputs = Parallel(
-                    n_jobs=model_workers, return_as="generator_unordered"
-                )(jobs(stage))
-                for index, (name, out) in outputs:
-                    seeds[index].record(name, out, folder)
-                    if bars is not None:
-                        bars.model_done(name, out["fit_time"], out["n_epochs"])
+        # loky may replace a worker between jobs, with a warning that reads as
+        # if work were lost; it is said once, in a line that says none was.
+        with worker_restarts_explained():
+            for stage in range(max(len(fit.stages) for fit in seeds)):
+                with _local_threads(backend, n_threads):
+                    outputs = Parallel(
+                        n_jobs=model_workers, return_as="generator_unordered"
+                    )(jobs(stage))
+                    for index, (name, out) in outputs:
+                        seeds[index].record(name, out, folder)
+                        if bars is not None:
+                            bars.model_done(name, out["fit_time"], out["n_epochs"])
     finally:
         if bars is not None:
             bars.close()

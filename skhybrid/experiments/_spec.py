@@ -24,6 +24,7 @@ from skhybrid.experiments._protocol import (
     refuse_one_step,
 )
 from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
+from skhybrid.utils._validation import first_not_finite
 
 __all__ = ["SystemSpec", "as_records", "records_digest"]
 
@@ -108,6 +109,10 @@ def _frame_dt(frame, where):
     return float(steps.mean())
 
 
+def _names_fit(names, array):
+    return isinstance(names, (list, tuple)) and len(names) == array.shape[1]
+
+
 def as_records(records, *, inputs=None, outputs=None, name="records", one=False):
     """Records in any of the spec's forms as lists of 2-D float arrays.
 
@@ -169,8 +174,17 @@ def as_records(records, *, inputs=None, outputs=None, name="records", one=False)
                 f"{where} must hold aligned inputs and outputs of shape (n_times,) "
                 f"or (n_times, n); got {u.shape} and {y.shape}."
             )
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
-            raise ValueError(f"{where} holds NaN or infinite values.")
+        bad = first_not_finite(
+            {
+                "inputs": (u, inputs) if _names_fit(inputs, u) else u,
+                "outputs": (y, outputs) if _names_fit(outputs, y) else y,
+            }
+        )
+        if bad is not None:
+            raise ValueError(
+                f"{where} holds NaN or infinite values ({bad}); remove or "
+                "interpolate them, or cut the record there into two records."
+            )
         if U and (u.shape[1] != U[0].shape[1] or y.shape[1] != Y[0].shape[1]):
             raise ValueError(
                 f"{where} has {u.shape[1]} input and {y.shape[1]} output columns; "
@@ -270,6 +284,37 @@ def _check_hybrids(hybrids):
                 f"StateSpaceHybridRegressor parameters{hint}; expected some of "
                 f"{allowed} ({', '.join(_HYBRID_SET_BY_RUN)} are set by the run)."
             )
+
+
+def _check_starts_values(physics, starts):
+    """Raise unless every start names the physics' parameters, finite, in bounds."""
+    params = physics.get_params(deep=False).get("params") or {}
+    bounds = physics.get_params(deep=False).get("bounds") or {}
+    for i, start in enumerate(starts):
+        for name, value in start.items():
+            where = f"physics_starts[{i}][{name!r}]"
+            if name not in params:
+                close = difflib.get_close_matches(str(name), list(params), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise ValueError(
+                    f"{where}: {name!r} is not a parameter of the physics{hint}; "
+                    f"its parameters are {sorted(params)}."
+                )
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, numbers.Real)
+                or not np.isfinite(value)
+            ):
+                raise ValueError(f"{where} must be a finite number; got {value!r}.")
+            if name in bounds:
+                low, high = bounds[name]
+                low = -np.inf if low is None else low
+                high = np.inf if high is None else high
+                if not low <= value <= high:
+                    raise ValueError(
+                        f"{where}={value!r} is outside the physics' bounds "
+                        f"[{low}, {high}] for {name!r}; start inside them."
+                    )
 
 
 def _check_takes_starts(physics):
@@ -504,6 +549,13 @@ class SystemSpec:
                 f"score_from_estimation_start={self.score_from_estimation_start!r}."
             )
         physics = self.physics
+        if isinstance(physics, type):
+            raise TypeError(
+                f"physics is the class {physics.__name__}, not a model: pass an "
+                f"unfitted instance, physics={physics.__name__}(...) with its "
+                "equations and starting parameters (see 'Model your own machine'), "
+                "or a callable physics(U, Y, dt) returning one."
+            )
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         if not is_factory and not (
             hasattr(physics, "fit") and hasattr(physics, "simulate")
@@ -526,6 +578,7 @@ class SystemSpec:
                 )
             if not is_factory:
                 _check_takes_starts(physics)
+                _check_starts_values(physics, starts)
         if (
             isinstance(self.starts_nfev, bool)
             or not isinstance(self.starts_nfev, numbers.Integral)
@@ -751,6 +804,7 @@ class SystemSpec:
         if not self.physics_starts:
             return base
         _check_takes_starts(base)  # a callable's physics is seen only now
+        _check_starts_values(base, self.physics_starts)
         # The spec's starts replace the physics' parameters: the first is the
         # model's params, the others its starts (StateSpaceModel's several starts).
         first, *others = self.physics_starts
@@ -797,6 +851,13 @@ class SystemSpec:
         if self.hybrids != "auto":
             return True
         physics = self.physics
+        if isinstance(physics, type):
+            raise TypeError(
+                f"physics is the class {physics.__name__}, not a model: pass an "
+                f"unfitted instance, physics={physics.__name__}(...) with its "
+                "equations and starting parameters (see 'Model your own machine'), "
+                "or a callable physics(U, Y, dt) returning one."
+            )
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         return is_factory or isinstance(physics, StateSpaceModel)
 

@@ -22,6 +22,7 @@ from joblib import Parallel, delayed
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from skhybrid.experiments._measured_zoo import simulate_records
+from skhybrid.experiments._workers import worker_restarts_explained
 from skhybrid.model_selection import StackedSimulation
 
 __all__ = ["simulate_tests"]
@@ -133,10 +134,11 @@ def simulate_tests(results, tests, *, n_jobs=1):
                 calls.setdefault((key, split), (estimator, split))
     n_init = results[0].n_init if results else 0
     threads = _threads_here()
-    outputs = Parallel(n_jobs=n_jobs)(
-        delayed(_free_run)(estimator, *tests[split], n_init, threads)
-        for estimator, split in calls.values()
-    )
+    with worker_restarts_explained():
+        outputs = Parallel(n_jobs=n_jobs)(
+            delayed(_free_run)(estimator, *tests[split], n_init, threads)
+            for estimator, split in calls.values()
+        )
     done = dict(zip(calls, outputs, strict=True))
     runs = [{split: {} for split in tests} for _ in results]
     for index, split, model, key in places:

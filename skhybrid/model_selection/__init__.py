@@ -12,13 +12,16 @@
   free run, and :func:`take_pieces`, the arrays of its folds;
 - :class:`SimulationSearchCV`: chooses among candidate models by their
   cross-validated free-run RMSE and refits the winner;
-- :class:`StackedSimulation`: a convex combination of models' free runs.
+- :class:`StackedSimulation`: a convex combination of models' free runs;
+- :class:`SimulationFit`: a model of records fitted by its free-run error, over
+  segments (how the search fits a model with ``fit_simulation``).
 """
 
 from skhybrid.model_selection._hull import in_convex_hull
 from skhybrid.model_selection._plot import ConvexHullSplitDisplay
 from skhybrid.model_selection._records import RecordBlockSplit, take_pieces
 from skhybrid.model_selection._search import SimulationSearchCV
+from skhybrid.model_selection._simulation_fit import SimulationFit
 from skhybrid.model_selection._split import (
     ConvexHullSplit,
     ExtrapolationSplit,
@@ -37,6 +40,7 @@ __all__ = [
     "ConvexHullSplitDisplay",
     "ExtrapolationSplit",
     "RecordBlockSplit",
+    "SimulationFit",
     "SimulationSearchCV",
     "StackedSimulation",
     "in_convex_hull",

@@ -28,6 +28,7 @@ from skhybrid.model_selection._records import (
     _check_records,
     take_pieces,
 )
+from skhybrid.model_selection._simulation_fit import fit_records
 from skhybrid.model_selection._stacking import (
     StackedSimulation,
     _as_2d,
@@ -109,9 +110,10 @@ def _fit_physics(physics, U, Y):
     """Fit a clone of the shared physics on a fold's fit pieces."""
     t0 = time.perf_counter()
     try:
-        fitted = clone(physics).fit(U, Y)
+        fitted = fit_records(clone(physics), U, Y)
     except Exception as exc:  # noqa: BLE001 - its candidates then score inf
-        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+        error = (f"{type(exc).__name__}: {exc}", type(exc).__name__)
+        return None, error, time.perf_counter() - t0
     return fitted, None, time.perf_counter() - t0
 
 
@@ -144,20 +146,23 @@ def _fit_and_score(
         "score_time": 0.0,
         "score": np.inf,
         "error": None,
+        "failed_at": None,
         "runs": None,
     }
     fitted_physics, physics_error = physics
     if factory and fitted_physics is None:
-        out["error"] = f"the shared physics' fit failed: {physics_error}"
+        out["error"] = f"the shared physics' fit failed: {physics_error[0]}"
+        out["failed_at"] = ("the shared physics' fit", physics_error[1])
         return out
     t0 = time.perf_counter()
     try:
-        model = _build(estimator, settings, factory, fitted_physics, seed).fit(
-            U_fit, Y_fit
+        model = fit_records(
+            _build(estimator, settings, factory, fitted_physics, seed), U_fit, Y_fit
         )
     except Exception as exc:  # noqa: BLE001 - scored inf, reason in cv_results_
         out["fit_time"] = time.perf_counter() - t0
         out["error"] = f"fit: {type(exc).__name__}: {exc}"
+        out["failed_at"] = ("fit", type(exc).__name__)
         return out
     out["fit_time"] = time.perf_counter() - t0
     t1 = time.perf_counter()
@@ -209,15 +214,21 @@ class SimulationSearchCV(BaseEstimator):
     ----------
     candidates : list of tuple
         ``(name, estimator)`` or ``(name, estimator, param_grid)``.
-        ``estimator`` is either a model with ``fit(U, Y)`` (lists of records)
-        and ``simulate(inputs, initial)``, cloned and given each setting by
+        ``estimator`` is either a model of records with
+        ``simulate(inputs, initial)``, cloned and given each setting by
         ``set_params``; or a factory ``make(physics, **settings)`` returning
-        such a model, given the fold's fitted ``physics`` (see Notes).
+        such a model, given the fold's fitted ``physics`` (see Notes). A model
+        with ``fit_simulation(inputs, outputs)`` (a
+        :class:`~skhybrid.domain.StateSpaceModel`, a
+        :class:`~skhybrid.hybrid.StateSpaceHybridRegressor`) is fitted by it on
+        whole records, as :class:`SimulationFit` fits it; any other by
+        ``fit(U, Y)`` on lists of records.
         ``param_grid`` is a dict of lists, expanded by
         :class:`~sklearn.model_selection.ParameterGrid`.
     physics : estimator, default=None
-        The physics shared by the factory candidates: a model with
-        ``fit(U, Y)``, fitted once on each fold's fit pieces and once on the
+        The physics shared by the factory candidates: a model of records
+        (fitted as a candidate is: by ``fit_simulation`` where it has one),
+        fitted once on each fold's fit pieces and once on the
         whole records for the refit. Required when a candidate is a factory.
     cv : int, RecordBlockSplit or None, default=None
         The folds: ``None`` for ``RecordBlockSplit(n_splits=4)``, an int for
@@ -316,7 +327,18 @@ class SimulationSearchCV(BaseEstimator):
     finite scores ``inf`` on its fold, its reason kept in ``split{k}_error``,
     and a :class:`~sklearn.exceptions.FitFailedWarning` says how many did. If
     every row has an infinite mean, ``fit`` raises a ``ValueError`` with the
-    reasons.
+    reasons. A candidate whose fit raised the same exception on every fold
+    (of every setting of its grid), or whose shared physics did, is broken
+    rather than outranked: ``fit`` raises a ``ValueError`` naming it, its
+    error and what to do, as ``GridSearchCV`` raises where every fit fails.
+
+    **Fit on records.** A candidate's ``fit(X, y)`` may be scikit-learn's
+    one-step fit on 2-D windows (a domain model's is, as ``check_estimator``
+    tests it). The search therefore fits a model that has
+    ``fit_simulation(inputs, outputs)`` by that method, on each fold's fit
+    pieces (:class:`SimulationFit` with ``segment=None``), and any other by
+    ``fit(U, Y)``. ``SimulationFit(model)`` as a candidate searches the
+    segment length of multiple shooting as well, ``{"segment": [None, 500]}``.
 
     **Shared physics.** Candidates built on a fitted physics (a correction of
     its free run, a hybrid warm-started from it) must not fit the same physics
@@ -573,6 +595,7 @@ class SimulationSearchCV(BaseEstimator):
         self._n_init = n_init
         means = self.cv_results_["mean_test_score"]
         self.best_index_ = int(np.argmin(means))  # the first on a tie
+        self._raise_if_a_candidate_never_fits(out)
         self._warn_failures(out)
         if not np.isfinite(means[self.best_index_]):
             raise ValueError(
@@ -683,6 +706,47 @@ class SimulationSearchCV(BaseEstimator):
                     lines.append(f"  {label}, fold {k}: {r['error']}")
         return "\n".join(lines)
 
+    def _raise_if_a_candidate_never_fits(self, out):
+        """Raise where a candidate's fit failed alike on every fold.
+
+        A candidate whose every setting failed to fit on every fold with the
+        same exception is broken, not outranked (scikit-learn's GridSearchCV
+        raises where every fit fails): another candidate winning in its place
+        would hide it.
+        """
+        params = self.cv_results_["params"]
+        by_name = {}
+        for p, o in zip(params, out, strict=False):
+            by_name.setdefault(p["candidate"], []).extend(o)
+        for name, fits in by_name.items():
+            if name == STACK_NAME:
+                continue
+            kinds = {r.get("failed_at") for r in fits}
+            if len(kinds) != 1 or None in kinds:
+                continue
+            (stage, exc_name) = kinds.pop()
+            if stage == "fit":
+                what = (
+                    f"fit(U, Y) raised {exc_name} on every fold. The search "
+                    "fits a candidate on lists of records (each fold's fit "
+                    "pieces): by fit_simulation(inputs, outputs) where it has "
+                    "one (as SimulationFit does), else by fit(U, Y); a model "
+                    "fitted on (X, y) windows needs a fit(U, Y) that takes "
+                    "records. Reproduce the error with clone(estimator).fit(U, "
+                    "Y) on the records, fix the candidate, or leave it out of "
+                    "candidates."
+                )
+            else:
+                what = (
+                    f"its shared physics' fit raised {exc_name} on every fold; "
+                    "check that physics fits on these records (fit_simulation "
+                    "where it has one, else fit(U, Y))."
+                )
+            raise ValueError(
+                f"candidate {name!r} failed on all {len(fits)} of its fold fits: "
+                f"{what} The first fold's error: {fits[0]['error']}"
+            )
+
     def _warn_failures(self, out):
         n_failed = sum(r["error"] is not None for o in out for r in o)
         if n_failed:
@@ -701,13 +765,15 @@ class SimulationSearchCV(BaseEstimator):
             chosen = [self.best_index_]
         self.physics_ = None
         if any(rows[i][3] for i in chosen):
-            self.physics_ = clone(self.physics).fit(U, Y)
+            self.physics_ = fit_records(clone(self.physics), U, Y)
         fitted = []
         for i in chosen:
             name, est, settings, factory = rows[i]
-            model = _build(
-                est, settings, factory, self.physics_, self.random_state
-            ).fit(U, Y)
+            model = fit_records(
+                _build(est, settings, factory, self.physics_, self.random_state),
+                U,
+                Y,
+            )
             fitted.append((_label(name, settings), model))
         if self.best_candidate_ != STACK_NAME:
             return fitted[0][1]

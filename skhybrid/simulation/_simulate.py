@@ -297,7 +297,11 @@ def _layout(estimator, n_states, n_inputs):
     if n_steps is not None and layout.n_steps != n_steps:
         raise ValueError(
             f"inputs has {n_inputs} columns, which makes windows of "
-            f"{layout.n_steps} steps, but the estimator has n_steps={n_steps}."
+            f"{layout.n_steps} steps, but the estimator has n_steps={n_steps}: "
+            f"its rows of {n_features} columns are {layout.n_steps} steps of "
+            f"{n_states} states and {n_inputs} inputs. Set n_steps="
+            f"{layout.n_steps} on the estimator and fit it again (or give the "
+            "inputs it was fitted on)."
         )
     return layout
 

@@ -4,7 +4,7 @@ import numpy as np
 
 from skhybrid.utils._sklearn_compat import validate_data
 
-__all__ = ["as_columns", "validate_records"]
+__all__ = ["as_columns", "first_not_finite", "validate_records"]
 
 
 def as_columns(values, name, *, columns="n_columns"):
@@ -38,6 +38,39 @@ def as_columns(values, name, *, columns="n_columns"):
             f"{array.shape}."
         )
     return array
+
+
+def first_not_finite(parts):
+    """Where the first NaN or infinite sample of aligned 2-D arrays is, in words.
+
+    Parameters
+    ----------
+    parts : dict of str to ndarray of shape (n_times, n_columns_i)
+        Aligned arrays by what they are (``{"inputs": u, "outputs": y}``); each
+        may instead be ``(array, column_names)``.
+
+    Returns
+    -------
+    where : str or None
+        ``"the first at row r, outputs column c ('name'): nan; k in all"``, the
+        earliest row first (then the first part and column), or None where every
+        value is finite.
+    """
+    first, n_bad = None, 0
+    for part, array in parts.items():
+        names = None
+        if isinstance(array, tuple):
+            array, names = array
+        bad = np.argwhere(~np.isfinite(np.asarray(array, dtype=float)))
+        n_bad += len(bad)
+        if len(bad) and (first is None or bad[0][0] < first[0]):
+            row, col = (int(i) for i in bad[0])
+            name = f" ({names[col]!r})" if names is not None else ""
+            first = (row, f"{part} column {col}{name}", array[row, col])
+    if first is None:
+        return None
+    row, column, value = first
+    return f"the first at row {row}, {column}: {value}; {n_bad} in all"
 
 
 def validate_records(estimator, X, y):

@@ -47,6 +47,7 @@ _SKIP_MODULE_PARTS = {"tests", "cli", "__main__"}
 #: scikit-learn's API checks that need no data on them (get_params, set_params,
 #: clone, nothing set in __init__, parameter validation).
 RECORD_META_ESTIMATORS = {
+    "SimulationFit": "fits lists of records, not (X, y) windows",
     "SimulationSearchCV": "fits lists of records, not (X, y) windows",
     "StackedSimulation": "fits lists of records, not (X, y) windows",
 }
@@ -88,7 +89,7 @@ def all_estimators(type_filter=None):
     estimators : list of (name, class) tuples
         Sorted by name. Abstract base classes are left out, and so are the
         model-selection meta-estimators over lists of records
-        (``RECORD_META_ESTIMATORS``: ``SimulationSearchCV``,
+        (``RECORD_META_ESTIMATORS``: ``SimulationFit``, ``SimulationSearchCV``,
         ``StackedSimulation``), which do not take ``(X, y)``.
 
     Examples

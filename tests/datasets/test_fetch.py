@@ -266,3 +266,24 @@ def test_without_network_the_friction_damper_error_names_url_file_and_folder(tmp
         message
     )
     assert "earthquake_profiles/ImperialValleyDBE.json" in message
+
+
+def test_an_offline_friction_damper_fetch_says_what_to_do_first(tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on: no network
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(OSError) as info:
+        fetch_friction_damper(tmp_path, mirror=f"http://127.0.0.1:{port}")
+    first, *files, why = str(info.value).splitlines()
+    folder = tmp_path / FRICTION
+    assert len(first) < 400 and "127.0.0.1" not in first
+    assert str(folder) in first and "load_friction_damper" in first
+    expected = sorted(
+        p.relative_to(DATA / FRICTION).as_posix()
+        for p in (DATA / FRICTION).rglob("*.json")
+    )
+    assert f"download its {len(expected)} missing files below" in first
+    assert sorted(line.split()[0] for line in files) == expected
+    assert why.startswith("Why the download failed:") and "127.0.0.1" in why

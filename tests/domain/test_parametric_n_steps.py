@@ -52,3 +52,17 @@ def test_rows_that_do_not_tell_fit_as_before():
     X, y = _ar_windows(2, shuffle=True)
     model = ParametricModel(second_order, {"a": 1.0, "b": 1.0}).fit(X, y)
     assert model.n_features_in_ == 4
+
+
+def test_simulate_says_which_n_steps_to_set_where_fit_could_not_tell():
+    from skhybrid.simulation import simulate
+
+    X, y = _ar_windows(2, shuffle=True)
+    model = ParametricModel(second_order, {"a": 1.0, "b": 1.0}).fit(X, y)
+    u = np.zeros((20, 1))
+    with pytest.raises(
+        ValueError,
+        match=r"estimator has n_steps=1: its rows of 4 columns are 2 steps .*"
+        r"Set n_steps=2 on the estimator and fit it again",
+    ):
+        simulate(model, u, np.zeros((2, 1)))

@@ -176,7 +176,7 @@ def test_silverbox_duffing_is_found_one_step_ahead_then_by_segments(intersample)
     model = make(dt, u, y, max_nfev=30)
     start = model.params
     assert abs(start["k1"] / truth["k1"] - 1) < 0.2
-    fit_segments(model, v, y, 500)
+    model = fit_segments(model, v, y, 500)
     assert_allclose([model.params_[k] for k in truth], list(truth.values()), rtol=1e-3)
     assert model.rmse_ < 1e-6 * np.ptp(y)
 

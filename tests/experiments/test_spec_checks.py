@@ -102,11 +102,52 @@ def test_a_good_spec_is_built():
             "score_from_estimation_start must be a bool",
         ),
         ({"records": 5}, TypeError, "records must be a (u, y) pair"),
+        (
+            {"physics": StateSpaceModel},
+            TypeError,
+            (
+                "physics is the class StateSpaceModel, not a model: pass an "
+                "unfitted instance, physics=StateSpaceModel(...)"
+            ),
+        ),
+        (
+            {"physics_starts": [{"aa": 1.0}]},
+            ValueError,
+            (
+                "physics_starts[0]['aa']: 'aa' is not a parameter of the physics "
+                "(did you mean 'a'?); its parameters are ['a', 'b']"
+            ),
+        ),
+        (
+            {"physics_starts": [{"a": 0.2}, {"b": float("nan")}]},
+            ValueError,
+            "physics_starts[1]['b'] must be a finite number; got nan",
+        ),
+        (
+            {"physics_starts": [{"a": "1"}]},
+            ValueError,
+            "physics_starts[0]['a'] must be a finite number; got '1'",
+        ),
+        (
+            {
+                "physics": _physics().set_params(bounds={"a": (0.0, 1.0)}),
+                "physics_starts": [{"a": 2.0}],
+            },
+            ValueError,
+            "physics_starts[0]['a']=2.0 is outside the physics' bounds [0.0, 1.0]",
+        ),
     ],
 )
 def test_a_bad_field_is_refused_when_built(kwargs, error, words):
     with pytest.raises(error, match=re.escape(words)):
         _spec(**kwargs)
+
+
+def test_a_callable_physics_starts_are_checked_when_it_is_built():
+    spec = _spec(physics=lambda U, Y, dt: _physics(), physics_starts=[{"c": 1.0}])
+    U, Y = spec.estimation_records()
+    with pytest.raises(ValueError, match=r"physics_starts\[0\]\['c'\]"):
+        spec.make_physics(U, Y, 0.1)
 
 
 def test_records_sampled_at_different_periods_are_refused():
@@ -160,6 +201,25 @@ def test_a_test_record_holding_nan_is_refused_before_any_fit():
     y[7] = np.nan
     with pytest.raises(ValueError, match=r"tests\['test'\] holds NaN"):
         _spec(tests={"test": (u, y)})
+
+
+def test_a_nan_is_located_by_record_row_and_column():
+    u, y = _record(100, 1)
+    y = y.copy()
+    y[37] = np.nan
+    y[60] = np.inf
+    with pytest.raises(
+        ValueError,
+        match=r"records\[1\] holds NaN or infinite values \(the first at row 37, "
+        r"outputs column 0: nan; 2 in all\); remove or interpolate",
+    ):
+        _spec(records=[_record(), (u, y)])
+    frame = pd.DataFrame(
+        {"force": np.r_[np.zeros(12), np.nan, np.zeros(87)], "position": y[:, 0]},
+        index=pd.to_timedelta(np.arange(100) * 0.1, unit="s"),
+    )
+    with pytest.raises(ValueError, match=r"row 12, inputs column 0 \('force'\)"):
+        _spec(records=frame, inputs=["force"], outputs=["position"], dt=None)
 
 
 def test_test_records_of_callable_records_are_checked_when_read():

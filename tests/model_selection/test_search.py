@@ -261,11 +261,18 @@ def test_failed_fits_and_free_runs_score_inf_with_their_reason(records):
 
 def test_every_candidate_failing_raises(records):
     U, Y = records
+    search = SimulationSearchCV([("broken", Broken(mode="nan"))], n_init=N_INIT)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitFailedWarning)
+        with pytest.raises(ValueError, match="broken, fold 0: simulate: the free"):
+            search.fit(U, Y)
+    # One whose fit fails alike on every fold is named, with its error.
     search = SimulationSearchCV([("broken", Broken())], n_init=N_INIT)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FitFailedWarning)
-        with pytest.raises(ValueError, match="broken, fold 0: fit: RuntimeError"):
+        with pytest.raises(ValueError, match="candidate 'broken' failed on all 4"):
             search.fit(U, Y)
+    assert search.cv_results_["split0_error"][0] == "fit: RuntimeError: no convergence"
 
 
 # -- shared physics ------------------------------------------------------------------
@@ -318,18 +325,29 @@ def test_refit_of_a_physics_candidate_uses_one_physics_fit(records):
     assert_allclose(search.best_estimator_.physics.coef_, search.physics_.coef_)
 
 
+class FailsOnShortPieces(ARX):
+    """A physics whose fit fails where a fold's first piece is short."""
+
+    def fit(self, U, Y):
+        if len(U[0]) < 100:
+            raise RuntimeError("no convergence")
+        return super().fit(U, Y)
+
+
 def test_a_failing_physics_fails_its_candidates_only(records):
     U, Y = records
     search = SimulationSearchCV(
         [("physics", physics_alone), ("gain", Gain())],
-        physics=Broken(),
+        physics=FailsOnShortPieces(),
         n_init=N_INIT,
     )
     with pytest.warns(FitFailedWarning):
         search.fit(U, Y)
+    assert search.cv_results_["split0_error"][0] is None
     assert search.cv_results_["split1_error"][0] == (
         "the shared physics' fit failed: RuntimeError: no convergence"
     )
+    assert search.cv_results_["split1_error"][1] is None
     assert search.best_candidate_ == "gain"
 
 
@@ -405,7 +423,7 @@ def test_the_stack_wins_only_where_it_lowers_the_mean_and_refits():
 def test_stack_needs_two_candidates_run_on_every_fold(records):
     U, Y = records
     search = SimulationSearchCV(
-        [("gain", Gain()), ("broken", Broken())], n_init=N_INIT, stack=True
+        [("gain", Gain()), ("broken", Broken(mode="nan"))], n_init=N_INIT, stack=True
     )
     with pytest.warns(FitFailedWarning):
         search.fit(U, Y)
@@ -553,8 +571,9 @@ def test_clone_and_scikit_learn_api_checks():
 
 def test_record_meta_estimators_are_left_out_of_the_common_checks():
     names = {name for name, _ in all_estimators()}
-    assert not names & {"SimulationSearchCV", "StackedSimulation"}
-    assert set(RECORD_META_ESTIMATORS) == {"SimulationSearchCV", "StackedSimulation"}
+    meta = {"SimulationFit", "SimulationSearchCV", "StackedSimulation"}
+    assert not names & meta
+    assert set(RECORD_META_ESTIMATORS) == meta
 
 
 class Seeded(Gain):

@@ -52,6 +52,7 @@ __all__ = [
     "MeasuredContext",
     "ZooModel",
     "epochs_at_most",
+    "fit_pieces_label",
     "pooled_rmse",
     "simulate_records",
     "zoo",
@@ -296,6 +297,54 @@ def _model_inputs(system, U):
     return list(U) if transform is None else [transform(u) for u in U]
 
 
+def _count(n, noun):
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _same_pieces(U, pieces):
+    """Whether the arrays ``U`` are the slices ``pieces`` (arrays) one for one."""
+    return len(U) == len(pieces) and all(
+        np.shape(u) == np.shape(p) and np.array_equal(u, p)
+        for u, p in zip(U, pieces, strict=True)
+    )
+
+
+def fit_pieces_label(ctx, U):
+    """What records a fit is given, in words: a fold's fit pieces or the records.
+
+    A search fits each candidate on every fold's fit pieces of the estimation
+    records, then refits the chosen one on the whole records; a fit learns
+    which by comparing what it is given with the folds of ``ctx``'s records.
+
+    Parameters
+    ----------
+    ctx : MeasuredContext
+        The run's context (its whole estimation records).
+    U : list of ndarray
+        The inputs of the records the fit is given.
+
+    Returns
+    -------
+    label : str
+        ``"fold 2 of 4 (6 fit pieces)"``, ``"the whole records (3 records)"``,
+        or ``"3 records"`` for records that are neither.
+    """
+    whole = [np.asarray(u) for u in ctx.U]
+    if _same_pieces(U, whole):
+        return f"the whole records ({_count(len(U), 'record')})"
+    lengths = [len(u) for u in U]
+    try:
+        folds = list(RecordBlockSplit(N_SPLITS, n_init=ctx.n_init).split(whole))
+    except ValueError:  # records too short to cut: not a search's fold
+        folds = []
+    for k, (fit, _) in enumerate(folds):
+        if [b - a for _, a, b in fit] != lengths:
+            continue
+        if _same_pieces(U, [whole[r][a:b] for r, a, b in fit]):
+            return f"fold {k + 1} of {len(folds)} ({_count(len(U), 'fit piece')})"
+    return _count(len(U), "record")
+
+
 def _fit_physics(segment, U, Y, ctx, deps, start):
     """The system's physics fitted on the records, over segments of them."""
     system = ctx.system
@@ -304,7 +353,16 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     pieces = "whole records" if segment is None else f"segments of {segment} samples"
     hook = None
     if ctx.sink is not None:  # the run's progress shows its evaluations
-        hook = physics_hook(ctx.sink, f"{ctx.label or 'physics'} on {pieces}")
+        # Which fold (or the refit), and what the fit simulates: each record
+        # (or fold piece) whole, or segments cut from them.
+        where = fit_pieces_label(ctx, U)
+        unit = "record" if segment is None else "segment"
+        if segment is None and where.startswith("fold"):
+            unit = "fit piece"
+        span = "each whole" if segment is None else f"in segments of {segment} samples"
+        hook = physics_hook(
+            ctx.sink, f"{ctx.label or 'physics'}, {where}, {span}", unit=unit
+        )
     with warnings.catch_warnings(record=True) as caught, fit_progress(hook):
         warnings.simplefilter("always")
         fit_segments(model, U_model, Y, segment)

@@ -41,19 +41,24 @@ PHYSICS_EVENT = "\x1f"
 PHYSICS_EVENT_INTERVAL = 0.5
 
 
-def physics_event(label, nfev, max_nfev, n_records):
+def physics_event(label, nfev, max_nfev, n_records, unit="record"):
     """The event line of a physics fit's progress."""
     limit = "" if max_nfev is None else int(max_nfev)
-    return f"{PHYSICS_EVENT}{label}\t{int(nfev)}\t{limit}\t{int(n_records)}"
+    return f"{PHYSICS_EVENT}{label}\t{int(nfev)}\t{limit}\t{int(n_records)}\t{unit}"
 
 
 def parse_physics_event(line):
-    """``(label, nfev, max_nfev or None, n_records)`` of a physics event line."""
-    label, nfev, limit, records = line[len(PHYSICS_EVENT) :].split("\t")
-    return label, int(nfev), int(limit) if limit else None, int(records)
+    """``(label, nfev, max_nfev or None, n_records, unit)`` of a physics event."""
+    label, nfev, limit, records, unit = line[len(PHYSICS_EVENT) :].split("\t")
+    return label, int(nfev), int(limit) if limit else None, int(records), unit
 
 
-def physics_hook(sink, label):
+def count(n, noun):
+    """``"1 record"``, ``"6 records"``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def physics_hook(sink, label, unit="record"):
     """A :func:`skhybrid.domain.fit_progress` hook that reports to ``sink``.
 
     Parameters
@@ -61,7 +66,11 @@ def physics_hook(sink, label):
     sink : FileSink or DaskEventSink
         Where the run's progress goes.
     label : str
-        What is being fitted (the model, and its segments).
+        What is being fitted: the model, the fold (or the refit on the whole
+        records), and how its records are simulated.
+    unit : str, default="record"
+        What the fit's ``n_records`` counts: ``"record"``, ``"fit piece"`` (a
+        fold's) or ``"segment"``.
 
     Returns
     -------
@@ -75,7 +84,7 @@ def physics_hook(sink, label):
         now = time.monotonic()
         if nfev == 1 or now - last[0] >= PHYSICS_EVENT_INTERVAL:
             last[0] = now
-            sink.emit(physics_event(label, nfev, max_nfev, n_records))
+            sink.emit(physics_event(label, nfev, max_nfev, n_records, unit))
 
     return hook
 
@@ -349,8 +358,8 @@ class ProgressBars:
         if physics is None or physics == self._physics_seen:
             return
         self._physics_seen = physics
-        label, nfev, limit, records = physics
-        what = f"{label}, {records} record{'s' if records != 1 else ''}"
+        label, nfev, limit, records, unit = physics
+        what = f"{label}; {count(records, unit)} simulated"
         if self.physics is not None:
             self.physics.total = limit
             self.physics.n = nfev
@@ -363,13 +372,32 @@ class ProgressBars:
             of = "" if limit is None else f" of at most {limit}"
             evaluations = "evaluation" if nfev == 1 else "evaluations"
             self.stream.write(
-                f"{self.description}: physics fit ({what}): {nfev} residual "
-                f"{evaluations}{of}\n"
+                f"{self.description}: {label}: physics fit, {nfev} residual "
+                f"{evaluations}{of} ({count(records, unit)} simulated)\n"
             )
             self.stream.flush()
 
-    def model_done(self, name, fit_time, n_epochs):
+    def model_done(self, name, fit_time, n_epochs, *, seed=None, searched_at=None):
+        """One model finished: a line (or the models bar moves).
+
+        Parameters
+        ----------
+        name : str
+            The model.
+        fit_time : float
+            Seconds its fit (search and refit) took.
+        n_epochs : int or None
+            Epochs its network trained.
+        seed : int or None, default=None
+            The seed it was fitted at, named where a bar covers several seeds.
+        searched_at : int or None, default=None
+            The seed whose search chose what this fit refits, if any.
+        """
         epochs = "" if n_epochs is None else f", {n_epochs} epochs"
+        if seed is not None:
+            name = f"{name} at seed {seed}"
+        if searched_at is not None:
+            name = f"{name} (refit of the choice made at seed {searched_at})"
         self.n_done += 1
         if self.models is None:
             self.stream.write(

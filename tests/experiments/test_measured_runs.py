@@ -402,7 +402,7 @@ def test_progress_counts_the_zoos_models(tmp_path, capsys, axis):
     # one bar per seed (the first searches, each refits).
     lines = [line for line in err.splitlines() if line.startswith("emps seed ")]
     # A physics fit that runs past the log interval (15 s) says how far it is.
-    physics = [line for line in lines if ": physics fit (" in line]
+    physics = [line for line in lines if ": physics fit, " in line]
     assert all(
         re.search(r"\d+ residual evaluations? of at most \d+", line) for line in physics
     )

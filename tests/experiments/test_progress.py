@@ -175,11 +175,12 @@ def test_a_physics_fit_shows_its_evaluations_of_max_nfev_and_its_segments(tmp_pa
     stream = _Terminal(tty=True)
     bars = ProgressBars(2, "toy", n_epochs=None, stream=stream)
     X = np.linspace(0, 1, 30)[:, None]
-    with fit_progress(physics_hook(bars.sink, "physics on segments of 100 samples")):
+    label = "physics, fold 2 of 4 (6 fit pieces), in segments of 100 samples"
+    with fit_progress(physics_hook(bars.sink, label, unit="segment")):
         _line_model().fit(X, 2 * X[:, 0] + 1)
     bars._update()
     assert bars.physics.total == 150 and bars.physics.n >= 1
-    assert "physics on segments of 100 samples, 1 record" in str(bars.physics)
+    assert f"{label}; 1 segment simulated" in str(bars.physics)
     # Epochs and physics events share the sink: neither counts as the other.
     assert bars.sink.poll()[0] == 0
     bars.close()
@@ -190,17 +191,66 @@ def test_without_a_terminal_a_long_physics_fit_logs_a_line():
 
     stream = _Terminal(tty=False)
     bars = ProgressBars(1, "toy", stream=stream, log_interval=0.0)
-    bars.sink.emit(physics_event("physics on whole records", 7, 400, 3))
+    label = "physics, fold 2 of 4 (6 fit pieces), each whole"
+    bars.sink.emit(physics_event(label, 7, 400, 6, "fit piece"))
     bars._update()
     bars.sink.emit("dense")  # an epoch
     bars.close()
     assert stream.buffer.getvalue().splitlines() == [
         "toy: 1 model to fit",
         (
-            "toy: physics fit (physics on whole records, 3 records): 7 residual "
-            "evaluations of at most 400"
+            "toy: physics, fold 2 of 4 (6 fit pieces), each whole: physics fit, 7 "
+            "residual evaluations of at most 400 (6 fit pieces simulated)"
         ),
     ]
+
+
+def test_a_refit_at_a_further_seed_names_its_seed_and_the_search():
+    from skhybrid.experiments._progress import ProgressBars
+
+    stream = _Terminal(tty=False)
+    bars = ProgressBars(2, "toy seed 1; toy seed 2", stream=stream)
+    bars.model_done("physics", 0.0, None, seed=1, searched_at=0)
+    bars.model_done("physics", 0.0, None, seed=2, searched_at=0)
+    bars.close()
+    assert stream.buffer.getvalue().splitlines()[1:] == [
+        f"toy seed 1; toy seed 2: {i}/2 models: physics at seed {i} (refit of "
+        "the choice made at seed 0) (0.0 s)"
+        for i in (1, 2)
+    ]
+
+
+def _context(U):
+    from skhybrid.experiments._measured_zoo import MeasuredContext
+
+    Y = [u.copy() for u in U]
+    return MeasuredContext(None, U, Y, n_init=5, dt=1.0, quick=True, seed=0)
+
+
+def test_a_fit_says_which_fold_it_fits_or_that_it_refits_the_whole_records():
+    from skhybrid.experiments._measured_zoo import fit_pieces_label
+    from skhybrid.model_selection import RecordBlockSplit, take_pieces
+
+    rng = np.random.default_rng(0)
+    U = [rng.standard_normal((400, 1)) for _ in range(3)]
+    ctx = _context(U)
+    folds = list(RecordBlockSplit(4, n_init=5).split(U))
+    labels = []
+    for fit, _ in folds:
+        # As a worker receives them: copies, not views of the context's records.
+        pieces = [p.copy() for p in take_pieces(U, None, fit)[0]]
+        labels.append(fit_pieces_label(ctx, pieces))
+    # The first and last folds hold one piece of each record, the middle two.
+    assert labels == [
+        "fold 1 of 4 (3 fit pieces)",
+        "fold 2 of 4 (6 fit pieces)",
+        "fold 3 of 4 (6 fit pieces)",
+        "fold 4 of 4 (3 fit pieces)",
+    ]
+    assert fit_pieces_label(ctx, [u.copy() for u in U]) == (
+        "the whole records (3 records)"
+    )
+    assert fit_pieces_label(ctx, [U[0][:100]]) == "1 record"
 
 
 def test_a_fit_stopped_at_max_nfev_never_shows_more_than_its_limit():

@@ -19,8 +19,9 @@ models fitted before it.
 
 import itertools
 import logging
+import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import numpy as np
@@ -35,6 +36,7 @@ from skhybrid.experiments._fitting import (
 )
 from skhybrid.experiments._measured_stack import STACK, choose_stack
 from skhybrid.experiments._progress import (
+    Tagged,
     attach_epoch_logger,
     epoch_budget,
     physics_hook,
@@ -345,6 +347,53 @@ def fit_pieces_label(ctx, U):
     return _count(len(U), "record")
 
 
+def _candidate_label(choice, candidate, ctx):
+    """A candidate in words: ``"n=4"``, ``"segments of 500"``, a hybrid's label."""
+    if isinstance(candidate, dict):
+        try:
+            labels = ctx.system.hybrid_candidates(ctx)
+        except (AttributeError, TypeError, ValueError):
+            labels = {}
+        for label, settings in labels.items():
+            if settings == candidate:
+                return str(label)
+        return "candidate"
+    if choice == "segment":
+        return "unsegmented" if candidate is None else f"segments of {candidate}"
+    return f"{choice}={candidate}"
+
+
+def _fit_and_report(fit, choice, candidate, U, Y, ctx, deps, start):
+    """``fit(candidate, U, Y, ctx, deps, start)``, its start and end reported.
+
+    The fit's events (its start, its end with the seconds it took, and its
+    networks' epochs and physics evaluations through the tagged sink) name the
+    model, the candidate and what the fit is given: a search's fold or the
+    refit on the whole records (:func:`fit_pieces_label`).
+    """
+    if ctx.sink is None:
+        return fit(candidate, U, Y, ctx, deps, start)
+    where = fit_pieces_label(ctx, U)
+    sink = Tagged(
+        ctx.sink,
+        model=ctx.label or "model",
+        where=where,
+        fold=int(where.split()[1]) if where.startswith("fold ") else None,
+        candidate=_candidate_label(choice, candidate, ctx),
+    )
+    sink.emit({"kind": "fit", "state": "start"})
+    began = time.perf_counter()
+    try:
+        fitted = fit(candidate, U, Y, replace(ctx, sink=sink), deps, start)
+    except BaseException:
+        seconds = time.perf_counter() - began
+        sink.emit({"kind": "fit", "state": "failed", "seconds": seconds})
+        raise
+    seconds = time.perf_counter() - began
+    sink.emit({"kind": "fit", "state": "done", "seconds": seconds})
+    return fitted
+
+
 def _fit_physics(segment, U, Y, ctx, deps, start):
     """The system's physics fitted on the records, over segments of them."""
     system = ctx.system
@@ -576,6 +625,11 @@ def zoo(system, quick=False):
             requires=("physics",),
             epochs=_hybrid_epochs,
         )
+    # Every fit reports its start and end to the run's progress.
+    models = {
+        name: replace(model, fit=partial(_fit_and_report, model.fit, model.choice))
+        for name, model in models.items()
+    }
     # Last: the weighted average of the others' free runs, its weights fitted on
     # their out-of-fold runs and its CV score cross-fitted.
     models[STACK] = ZooModel(

@@ -8,9 +8,15 @@ import numpy as np
 
 from skhybrid.experiments._html import p_value
 from skhybrid.experiments._store import SELECTION_FILE, _slug
+from skhybrid.experiments._verdicts import (
+    coverage_verdict,
+    input_verdict,
+    standard_error_caveat,
+    whiteness_verdict,
+)
 from skhybrid.model_selection import in_convex_hull
 
-__all__ = ["hull_exit", "measured_figure", "measured_section"]
+__all__ = ["hull_exit", "legend_beside", "measured_figure", "measured_section"]
 
 
 def hull_exit(train, test, n_init):
@@ -49,7 +55,8 @@ def measured_figure(run, out_dir):
 
     result = run.results[0]
     system, tests, n_init, dt = result.system, result.tests, result.n_init, result.dt
-    fig = Figure(figsize=(7 * max(1, len(tests)), 6))
+    # Constrained layout makes room for the legends beside the panels.
+    fig = Figure(figsize=(9.5 * max(1, len(tests)), 6), layout="constrained")
     axes = fig.subplots(2, max(1, len(tests)), sharex="col", squeeze=False)
     for j, (split, (_u, y)) in enumerate(tests.items()):
         t = np.arange(len(y)) * dt
@@ -77,11 +84,13 @@ def measured_figure(run, out_dir):
         for label in order:
             i, err = errors[label]
             bottom.plot(t, err, lw=0.6, label=label, color=f"C{i}")
-        bottom.legend(fontsize=7)
+        if order:
+            legend_beside(bottom)
+        hull = result.hull.get(split)
+        leaves = bool(hull and hull["first_outside"] is not None)
         for ax in (top, bottom):
             ax.axvspan(0, n_init * dt, color="0.9")
-            hull = result.hull.get(split)
-            if hull and hull["first_outside"] is not None:
+            if leaves:
                 ax.axvline(hull["first_outside"] * dt, color="r", ls="--")
         band = getattr(result, "bands", {}).get(split)
         if band is not None:
@@ -103,12 +112,33 @@ def measured_figure(run, out_dir):
         unit = system.unit
         top.set_ylabel(f"output [{unit}]")
         bottom.set_ylabel(f"simulation error [{unit}]\n(physics-based models)")
-        bottom.set_xlabel("time [s] (grey: init window; red: leaves the training hull)")
-        top.legend(fontsize=7)
-    fig.tight_layout()
+        # The label names only what is drawn.
+        marks = ["grey: init window"]
+        if leaves:
+            marks.append("red dashed line: first sample outside the training hull")
+        bottom.set_xlabel(f"time [s] ({'; '.join(marks)})")
+        legend_beside(top)
     path = Path(out_dir) / f"{_slug(system.name)}.png"
     fig.savefig(path, dpi=90)
     return path
+
+
+def legend_beside(ax):
+    """The legend of ``ax`` to its right, outside the panel: it covers no data.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        A panel with labelled artists.
+
+    Returns
+    -------
+    legend : matplotlib.legend.Legend
+        The legend, anchored at the panel's top right corner.
+    """
+    return ax.legend(
+        fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0
+    )
 
 
 def _limits(measured, margin=0.25):
@@ -164,11 +194,12 @@ def _stochastic_html(summary, unit):
             reason = noise.get("reason", "no model chosen")
             rows.append(
                 f"<tr><td>{seed}</td><td>{html.escape(str(part.get('model')))}</td>"
-                f"<td colspan='6'>no noise model: {html.escape(reason)}</td></tr>"
+                f"<td colspan='7'>no noise model: {html.escape(reason)}</td></tr>"
             )
             continue
         lags = ", ".join(map(str, noise["lags"])) or "none (white)"
         val = part.get("validation", {})
+        level = part.get("level", 0.95)
         rows.append(
             f"<tr><td>{seed}</td><td>{html.escape(part['model'])}</td>"
             "<td>held-out blocks (CV)</td>"
@@ -176,7 +207,7 @@ def _stochastic_html(summary, unit):
             f"<td>{p_value(val.get('input_correlation_pvalue'))}</td>"
             f"<td>AR lags {lags}; std {noise['std']:.3g}, innovations "
             f"{noise['innovation_std']:.3g}, mean {noise['mean']:.3g}</td>"
-            "<td></td></tr>"
+            f"<td></td><td>{_reading(val)}</td></tr>"
         )
         for split, tests in part.get("tests", {}).items():
             coverage = tests.get("coverage")
@@ -185,7 +216,7 @@ def _stochastic_html(summary, unit):
                 f"<tr><td>{seed}</td><td></td><td>{html.escape(split)}</td>"
                 f"<td>{p_value(tests.get('ljung_box_pvalue'))}</td>"
                 f"<td>{p_value(tests.get('input_correlation_pvalue'))}</td><td></td>"
-                f"<td>{covered}</td></tr>"
+                f"<td>{covered}</td><td>{_reading(tests, level)}</td></tr>"
             )
     if not rows:
         return ""
@@ -205,9 +236,55 @@ samples inside it (nominal {100 * level:.0f} %; lower means the residuals on
 test are larger than on the held-out blocks). Coverage over seeds: {coverage}.</p>
 <table><tr><th>seed</th><th>chosen</th><th>residuals of</th>
 <th>Ljung-Box p</th><th>input correlation p</th><th>noise model</th>
-<th>band coverage</th></tr>
+<th>band coverage</th><th>reading (at 5 %)</th></tr>
 {"".join(rows)}</table>
 """
+
+
+def _reading(tests, level=None):
+    """The verdicts of one row of residual tests, in words (HTML)."""
+    verdicts = [
+        whiteness_verdict(tests.get("ljung_box_pvalue")),
+        input_verdict(tests.get("input_correlation_pvalue")),
+    ]
+    if level is not None:
+        verdicts.append(coverage_verdict(tests.get("coverage"), level))
+    return html.escape("; ".join(verdicts))
+
+
+def _params_html(run, summary):
+    """The physics' parameters by seed, with what their standard errors assume."""
+    items, caveats = [], []
+    for result in run.results:
+        seed = str(result.settings.seed)
+        physics = (summary.get("stochastic", {}).get(seed) or {}).get(
+            "physics_validation"
+        ) or {}
+        caveats.append(standard_error_caveat(physics.get("ljung_box_pvalue")))
+        items.append((seed, _params_text(result.params.get("physics"))))
+    if len(set(caveats)) == 1:  # the same reading at every seed: said once
+        listed = "".join(f"<li>seed {seed}: {text}</li>" for seed, text in items)
+        caveat = html.escape(caveats[0][0].upper() + caveats[0][1:])
+        return f"<ul>{listed}</ul><p>{caveat}.</p>"
+    listed = "".join(
+        f"<li>seed {seed}: {text} ({html.escape(caveat)})</li>"
+        for (seed, text), caveat in zip(items, caveats, strict=True)
+    )
+    return f"<ul>{listed}</ul>"
+
+
+def _chosen_cv_text(summary):
+    """The CV RMSE of each seed's chosen model: mean &plusmn; std over its folds."""
+    entries = [
+        summary.get("cv_rmse", {}).get(seed, {}).get(model)
+        for seed, model in summary.get("chosen_model", {}).items()
+    ]
+    entries = [e for e in entries if e]
+    if not entries:
+        return ""
+    mean = np.mean([e["mean"] for e in entries])
+    std = np.mean([e["std"] for e in entries])
+    return f"{mean:.4g} &plusmn; {std:.2g}"
 
 
 def _coverage_text(spread):
@@ -315,7 +392,8 @@ def measured_section(run, figure):
         ratio = "" if not ratio or ratio["mean"] is None else f"{ratio['mean']:.2f}"
         rows.append(
             f"<tr><td>{html.escape(split)}</td><td><b>chosen by CV</b></td>"
-            f"<td><b>{_figure_text(chosen)}</b></td><td></td><td><b>{ratio}</b></td>"
+            f"<td><b>{_figure_text(chosen)}</b></td>"
+            f"<td><b>{_chosen_cv_text(summary)}</b></td><td><b>{ratio}</b></td>"
             "<td>ours</td></tr>"
         )
         for model, spread in scores.items():
@@ -346,10 +424,7 @@ def measured_section(run, figure):
         apart = (
             f"<p>Published under another protocol (not comparable):</p><ul>{apart}</ul>"
         )
-    params = "; ".join(
-        f"seed {result.settings.seed}: " + _params_text(result.params.get("physics"))
-        for result in run.results
-    )
+    params = _params_html(run, summary)
     data = base64.b64encode(Path(figure).read_bytes()).decode("ascii")
     chosen = ", ".join(
         f"seed {s}: {html.escape(str(m))}" for s, m in summary["chosen_model"].items()
@@ -394,7 +469,7 @@ read.</p>{notes}
 {"".join(rows)}</table>
 <p>Chosen by the lowest mean CV RMSE (never on a test record): {chosen}.</p>
 {stack}{apart}
-<p>Physics parameters fitted (value &plusmn; standard error): {params}</p>
+<p>Physics parameters fitted (value &plusmn; standard error):</p>{params}
 {stochastic}
 <h4>Test records and free runs (seed {summary["seeds"][0]})</h4>
 <img alt='{html.escape(summary["title"])}' src='data:image/png;base64,{data}'>

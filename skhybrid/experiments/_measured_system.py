@@ -12,7 +12,7 @@ import json
 from dataclasses import replace
 
 import numpy as np
-from joblib import delayed
+from joblib import delayed, effective_n_jobs
 
 from skhybrid.experiments._measured_search import fit_model
 from skhybrid.experiments._measured_zoo import (
@@ -23,6 +23,7 @@ from skhybrid.experiments._measured_zoo import (
     zoo,
 )
 from skhybrid.experiments._pickling import check_picklable
+from skhybrid.experiments._progress import Tagged
 from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._spec import SystemSpec, records_digest
 from skhybrid.experiments._store import VALIDATION_RUNS
@@ -331,7 +332,7 @@ class MeasuredSystem:
         """
         ctx = _context(result, searched=result.searched.get(name))
         ctx = replace(ctx, n_jobs=n_jobs, n_threads=n_threads)
-        return delayed(fit_model)(name, model, ctx, deps, sink)
+        return delayed(_announce_and_fit)(name, model, ctx, deps, sink)
 
     def epochs_at_most(self, models, result):
         """The most epochs the networks of ``models`` can train at this seed.
@@ -351,6 +352,54 @@ class MeasuredSystem:
             :func:`~skhybrid.experiments._measured_zoo.epochs_at_most`).
         """
         return epochs_at_most(models, _context(result), searched=set(result.searched))
+
+
+def search_event(name, model, ctx, deps):
+    """The progress event of a model's search as it begins.
+
+    Parameters
+    ----------
+    name : str
+        The model.
+    model : ZooModel
+        Its candidates (none searched for a model chosen otherwise, such as
+        the stack, or for a refit of a choice made at another seed).
+    ctx : MeasuredContext
+        The records, the seed, the search's workers and, for a refit, the
+        search it refits (``searched``).
+    deps : dict of str to dict
+        The fits of the models it requires (their choices).
+
+    Returns
+    -------
+    event : dict
+        ``kind`` ``"search"``, ``model``, ``n_candidates``, ``n_folds``,
+        ``n_workers`` and ``searched_at`` (the seed whose choice is refitted,
+        or None).
+    """
+    n_folds = RecordBlockSplit(N_SPLITS, n_init=ctx.n_init).get_n_splits(list(ctx.U))
+    searched_at, n_candidates = None, 0
+    if ctx.searched is not None:
+        searched_at = ctx.searched.get("seed")
+    elif model.choose is None:
+        records = {k: d["fit"] for k, d in deps.items()}
+        n_candidates = len(model.candidates(ctx, records))
+    return {
+        "kind": "search",
+        "model": name,
+        "n_candidates": n_candidates,
+        "n_folds": n_folds,
+        "n_workers": effective_n_jobs(ctx.n_jobs),
+        "searched_at": searched_at,
+    }
+
+
+def _announce_and_fit(name, model, ctx, deps, sink=None):
+    """:func:`fit_model`, its events tagged with the seed, its search announced."""
+    if sink is not None:
+        sink = Tagged(sink, seed=ctx.seed)
+        sink.emit(search_event(name, model, ctx, deps))
+    return fit_model(name, model, ctx, deps, sink)
 
 
 def _context(result, searched=None):

@@ -19,8 +19,9 @@ models fitted before it.
 
 import itertools
 import logging
+import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import numpy as np
@@ -35,6 +36,7 @@ from skhybrid.experiments._fitting import (
 )
 from skhybrid.experiments._measured_stack import STACK, choose_stack
 from skhybrid.experiments._progress import (
+    Tagged,
     attach_epoch_logger,
     epoch_budget,
     physics_hook,
@@ -52,6 +54,7 @@ __all__ = [
     "MeasuredContext",
     "ZooModel",
     "epochs_at_most",
+    "fit_pieces_label",
     "pooled_rmse",
     "simulate_records",
     "zoo",
@@ -296,6 +299,101 @@ def _model_inputs(system, U):
     return list(U) if transform is None else [transform(u) for u in U]
 
 
+def _count(n, noun):
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _same_pieces(U, pieces):
+    """Whether the arrays ``U`` are the slices ``pieces`` (arrays) one for one."""
+    return len(U) == len(pieces) and all(
+        np.shape(u) == np.shape(p) and np.array_equal(u, p)
+        for u, p in zip(U, pieces, strict=True)
+    )
+
+
+def fit_pieces_label(ctx, U):
+    """What records a fit is given, in words: a fold's fit pieces or the records.
+
+    A search fits each candidate on every fold's fit pieces of the estimation
+    records, then refits the chosen one on the whole records; a fit learns
+    which by comparing what it is given with the folds of ``ctx``'s records.
+
+    Parameters
+    ----------
+    ctx : MeasuredContext
+        The run's context (its whole estimation records).
+    U : list of ndarray
+        The inputs of the records the fit is given.
+
+    Returns
+    -------
+    label : str
+        ``"fold 2 of 4 (6 fit pieces)"``, ``"the whole records (3 records)"``,
+        or ``"3 records"`` for records that are neither.
+    """
+    whole = [np.asarray(u) for u in ctx.U]
+    if _same_pieces(U, whole):
+        return f"the whole records ({_count(len(U), 'record')})"
+    lengths = [len(u) for u in U]
+    try:
+        folds = list(RecordBlockSplit(N_SPLITS, n_init=ctx.n_init).split(whole))
+    except ValueError:  # records too short to cut: not a search's fold
+        folds = []
+    for k, (fit, _) in enumerate(folds):
+        if [b - a for _, a, b in fit] != lengths:
+            continue
+        if _same_pieces(U, [whole[r][a:b] for r, a, b in fit]):
+            return f"fold {k + 1} of {len(folds)} ({_count(len(U), 'fit piece')})"
+    return _count(len(U), "record")
+
+
+def _candidate_label(choice, candidate, ctx):
+    """A candidate in words: ``"n=4"``, ``"segments of 500"``, a hybrid's label."""
+    if isinstance(candidate, dict):
+        try:
+            labels = ctx.system.hybrid_candidates(ctx)
+        except (AttributeError, TypeError, ValueError):
+            labels = {}
+        for label, settings in labels.items():
+            if settings == candidate:
+                return str(label)
+        return "candidate"
+    if choice == "segment":
+        return "unsegmented" if candidate is None else f"segments of {candidate}"
+    return f"{choice}={candidate}"
+
+
+def _fit_and_report(fit, choice, candidate, U, Y, ctx, deps, start):
+    """``fit(candidate, U, Y, ctx, deps, start)``, its start and end reported.
+
+    The fit's events (its start, its end with the seconds it took, and its
+    networks' epochs and physics evaluations through the tagged sink) name the
+    model, the candidate and what the fit is given: a search's fold or the
+    refit on the whole records (:func:`fit_pieces_label`).
+    """
+    if ctx.sink is None:
+        return fit(candidate, U, Y, ctx, deps, start)
+    where = fit_pieces_label(ctx, U)
+    sink = Tagged(
+        ctx.sink,
+        model=ctx.label or "model",
+        where=where,
+        fold=int(where.split()[1]) if where.startswith("fold ") else None,
+        candidate=_candidate_label(choice, candidate, ctx),
+    )
+    sink.emit({"kind": "fit", "state": "start"})
+    began = time.perf_counter()
+    try:
+        fitted = fit(candidate, U, Y, replace(ctx, sink=sink), deps, start)
+    except BaseException:
+        seconds = time.perf_counter() - began
+        sink.emit({"kind": "fit", "state": "failed", "seconds": seconds})
+        raise
+    seconds = time.perf_counter() - began
+    sink.emit({"kind": "fit", "state": "done", "seconds": seconds})
+    return fitted
+
+
 def _fit_physics(segment, U, Y, ctx, deps, start):
     """The system's physics fitted on the records, over segments of them."""
     system = ctx.system
@@ -304,7 +402,16 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     pieces = "whole records" if segment is None else f"segments of {segment} samples"
     hook = None
     if ctx.sink is not None:  # the run's progress shows its evaluations
-        hook = physics_hook(ctx.sink, f"{ctx.label or 'physics'} on {pieces}")
+        # Which fold (or the refit), and what the fit simulates: each record
+        # (or fold piece) whole, or segments cut from them.
+        where = fit_pieces_label(ctx, U)
+        unit = "record" if segment is None else "segment"
+        if segment is None and where.startswith("fold"):
+            unit = "fit piece"
+        span = "each whole" if segment is None else f"in segments of {segment} samples"
+        hook = physics_hook(
+            ctx.sink, f"{ctx.label or 'physics'}, {where}, {span}", unit=unit
+        )
     with warnings.catch_warnings(record=True) as caught, fit_progress(hook):
         warnings.simplefilter("always")
         model = fit_segments(model, U_model, Y, segment)
@@ -518,6 +625,11 @@ def zoo(system, quick=False):
             requires=("physics",),
             epochs=_hybrid_epochs,
         )
+    # Every fit reports its start and end to the run's progress.
+    models = {
+        name: replace(model, fit=partial(_fit_and_report, model.fit, model.choice))
+        for name, model in models.items()
+    }
     # Last: the weighted average of the others' free runs, its weights fitted on
     # their out-of-fold runs and its CV score cross-fitted.
     models[STACK] = ZooModel(

@@ -374,11 +374,27 @@ def fit_zoos(
                     for index, (name, out) in outputs:
                         seeds[index].record(name, out, folder)
                         if bars is not None:
-                            bars.model_done(name, out["fit_time"], out["n_epochs"])
+                            bars.model_done(
+                                name,
+                                out["fit_time"],
+                                out["n_epochs"],
+                                **_whose(seeds, index, name),
+                            )
     finally:
         if bars is not None:
             bars.close()
     return [fit.finish() for fit in seeds]
+
+
+def _whose(seeds, index, name):
+    """The seed a finished model names (with several seeds), and whose search
+    chose what it refits (a measured system's further seeds)."""
+    fit = seeds[index]
+    searched = (getattr(fit.result, "searched", None) or {}).get(name)
+    return {
+        "seed": fit.settings.seed if len(seeds) > 1 else None,
+        "searched_at": None if searched is None else searched.get("seed"),
+    }
 
 
 def _record(result, name, out, folder):

@@ -228,6 +228,34 @@ def score_tests(result, tests, folder=None, runs=None):
     result.stochastic = stochastic_part(result)
 
 
+def _out_of_fold_residuals(result, model, joined=True):
+    """A model's out-of-fold free-run residuals and the inputs at their samples.
+
+    The held-out blocks of each fold, after their first samples, joined block
+    after block as the out-of-fold runs are.
+
+    Returns
+    -------
+    residuals : ndarray or list of ndarray
+        Joined, or one array per fold (``joined=False``).
+    inputs : ndarray of shape (n_samples, n_inputs)
+        The inputs at the same samples.
+
+    None where the model has no out-of-fold runs.
+    """
+    runs = result.validation_runs.get(model)
+    if runs is None or model not in result.fits:
+        return None
+    start = int(result.fits[model].get("selection", {}).get("validation_start", 0))
+    residuals, inputs = [], []
+    for (U_b, Y_b), run in zip(result.validation_blocks(), runs, strict=True):
+        measured = np.concatenate([np.ravel(y)[start:] for y in Y_b])
+        residuals.append(measured - np.ravel(run))
+        inputs.append(np.vstack([np.asarray(u)[start:] for u in U_b]))
+    inputs = np.vstack(inputs)
+    return (np.concatenate(residuals) if joined else residuals), inputs
+
+
 def stochastic_part(result):
     """The chosen model's residual tests, noise model and band coverage.
 
@@ -244,29 +272,32 @@ def stochastic_part(result):
     -------
     stochastic : dict
         ``model``, ``level``, ``validation`` (residual tests), ``noise`` (the
-        noise model's description) and ``tests`` (``{split: residual tests and
-        coverage}``); ``{"model": None}`` where no model was chosen, and
+        noise model's description), ``tests`` (``{split: residual tests and
+        coverage}``) and ``physics_validation`` (the same tests of the
+        physics' own out-of-fold residuals, or None); ``{"model": None}``
+        where no model was chosen, and
         ``noise.fitted`` False with the reason where no noise model could be
         fitted.
     """
     model = result.selected_model()
-    runs = result.validation_runs.get(model)
-    if model is None or runs is None:
-        return {"model": model, "level": BAND_LEVEL, "noise": {"fitted": False}}
-    start = int(result.fits[model].get("selection", {}).get("validation_start", 0))
-    # The held-out blocks of each fold, after their first samples, joined block
-    # after block as the out-of-fold runs are.
-    residuals, inputs = [], []
-    for (U_b, Y_b), run in zip(result.validation_blocks(), runs, strict=True):
-        measured = np.concatenate([np.ravel(y)[start:] for y in Y_b])
-        residuals.append(measured - np.ravel(run))
-        inputs.append(np.vstack([np.asarray(u)[start:] for u in U_b]))
-    inputs = np.vstack(inputs)
+    # The physics' own residuals: its standard errors assume its structure,
+    # which white residuals support and coloured ones contradict.
+    physics = _out_of_fold_residuals(result, "physics")
+    physics = None if physics is None else residual_tests(*physics)
+    if model is None or result.validation_runs.get(model) is None:
+        return {
+            "model": model,
+            "level": BAND_LEVEL,
+            "noise": {"fitted": False},
+            "physics_validation": physics,
+        }
+    residuals, inputs = _out_of_fold_residuals(result, model, joined=False)
     scale = result.system.scale
     noise, description = fit_noise(residuals)
     out = {
         "model": model,
         "level": BAND_LEVEL,
+        "physics_validation": physics,
         "validation": residual_tests(np.concatenate(residuals), inputs),
         "noise": {
             k: scale * v if k in ("innovation_std", "mean", "std") else v

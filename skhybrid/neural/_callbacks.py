@@ -8,7 +8,7 @@ from skorch.callbacks import Callback
 
 from skhybrid.exceptions import TrainingDivergedError
 
-__all__ = ["BatchIterator", "DivergenceCheck"]
+__all__ = ["BatchIterator", "DivergenceCheck", "EpochProgress"]
 
 
 class BatchIterator:
@@ -199,3 +199,52 @@ class DivergenceCheck(Callback):
                 lr=self.lr,
             )
             self.first_.setdefault(key, value)
+
+
+class EpochProgress(Callback):
+    """Report every epoch's number, budget and losses to ``sink``.
+
+    A skorch callback that can be pickled into a worker process with the network
+    it watches: after each epoch it calls ``sink.emit(event)`` with the event
+    ``{"kind": "epoch", "name": name, "epoch": k, "max_epochs": n,
+    "train_loss": ..., "valid_loss": ...}`` (``valid_loss`` None without a
+    validation part); ``epoch`` counts from 1 in each training (a fine-tuning
+    phase started by ``partial_fit`` counts its own). Early stopping may end the
+    training before ``max_epochs``.
+
+    Parameters
+    ----------
+    sink : object
+        Anything with ``emit(event)`` (the run's progress,
+        :mod:`skhybrid.experiments._progress`).
+    name : str
+        What is trained (the model's name).
+    """
+
+    def __init__(self, sink, name):
+        self.sink = sink
+        self.name = name
+
+    def on_train_begin(self, net, **kwargs):
+        # A fine-tuning phase (``partial_fit``) continues the history: its
+        # epochs are counted from its own start, against its own budget.
+        self.start_ = len(net.history)
+
+    def on_epoch_end(self, net, **kwargs):
+        row = net.history[-1]
+        start = getattr(self, "start_", 0)
+
+        def loss(key):
+            value = row.get(key)
+            return None if value is None else float(value)
+
+        self.sink.emit(
+            {
+                "kind": "epoch",
+                "name": self.name,
+                "epoch": len(net.history) - start,
+                "max_epochs": int(net.max_epochs),
+                "train_loss": loss("train_loss"),
+                "valid_loss": loss("valid_loss"),
+            }
+        )

@@ -402,11 +402,15 @@ def test_progress_counts_the_zoos_models(tmp_path, capsys, axis):
     # one bar per seed (the first searches, each refits).
     lines = [line for line in err.splitlines() if line.startswith("emps seed ")]
     # A physics fit that runs past the log interval (15 s) says how far it is.
-    physics = [line for line in lines if ": physics fit (" in line]
+    physics = [line for line in lines if ": physics fit, " in line]
     assert all(
         re.search(r"\d+ residual evaluations? of at most \d+", line) for line in physics
     )
-    lines = [line for line in lines if line not in physics]
+    # Each fit of a search (its fold, or the refit) has its line too.
+    assert any(re.search(r"fold 1 of \d \(\d+ fit pieces?\), seed 0", x) for x in lines)
+    lines = [
+        line for line in lines if re.search(r": \d+ models to fit|/4 models: ", line)
+    ]
     assert [line.split(" models: ")[0] for line in lines] == [
         text
         for s in (0, 1)

@@ -256,6 +256,9 @@ def test_run_system_seals_then_scores_three_seeds(machine, tmp_path, monkeypatch
     assert "The stochastic part of the chosen model" in page
     assert "(deterministic)" in page and "test / CV" in page
     assert "band coverage" in page
+    # Each residual test read in words, the standard errors' assumption said.
+    assert page.count("white at 5 %") >= 2 and "reading (at 5 %)" in page
+    assert "conditional on the physics&#x27; structure" in page
     assert "The stack (<code>stacked</code>) averages" in page
 
 

@@ -16,7 +16,20 @@ import threading
 
 import numpy as np
 
-__all__ = ["Lockstep", "run_in_lockstep"]
+__all__ = ["Lockstep", "current_member", "run_in_lockstep"]
+
+#: ``(lockstep, member)`` of the fit running in this thread, or None.
+_MEMBER = contextvars.ContextVar("skhybrid_lockstep_member", default=None)
+
+
+def current_member():
+    """``(lockstep, member)`` of the fit running in this context, or None.
+
+    A :class:`~skhybrid.domain.StateSpaceModel` fitted inside
+    :func:`run_in_lockstep` finds its group here and has its parameter sets
+    simulated with the others'.
+    """
+    return _MEMBER.get()
 
 
 class Lockstep:
@@ -93,10 +106,11 @@ class Lockstep:
 def run_in_lockstep(models, fit):
     """Run ``fit(model)`` for every model at once, their simulations batched.
 
-    Each model gets a shared :class:`Lockstep` as ``_lockstep`` for the time of
-    its fit (a :class:`~skhybrid.domain.StateSpaceModel` whose parameter sets
-    are simulated in batches asks it for them) and runs in a thread of its own,
-    in a copy of the caller's context (its progress hook included).
+    Each fit runs in a thread of its own, in a copy of the caller's context
+    (its progress hook included) in which :func:`current_member` names the
+    shared :class:`Lockstep` and the fit's place in it: a
+    :class:`~skhybrid.domain.StateSpaceModel` whose parameter sets are
+    simulated in batches asks the group for them.
 
     Parameters
     ----------
@@ -114,13 +128,12 @@ def run_in_lockstep(models, fit):
     outcomes = [None] * len(models)
 
     def work(i, model):
-        model._lockstep = lockstep
+        _MEMBER.set((lockstep, i))
         try:
             outcomes[i] = fit(model)
         except BaseException as exc:  # noqa: BLE001 - handed to the caller
             outcomes[i] = exc
         finally:
-            model.__dict__.pop("_lockstep", None)
             lockstep.leave()
 
     threads = [

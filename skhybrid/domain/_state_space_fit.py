@@ -13,6 +13,7 @@ import numpy as np
 
 from skhybrid.domain._base import _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
+from skhybrid.domain._lockstep import current_member
 from skhybrid.domain._starts import short_fit_start
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
@@ -305,14 +306,15 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
     def _record_residuals_batch(self, thetas, spec):
         """Residuals ``(n_sets, n_residuals)`` of parameter sets ``thetas``.
 
-        A fit run in lockstep with others (``_lockstep``, the short fits of
-        ``starts``) has its sets simulated in one batch with theirs.
+        A fit run in lockstep with others (:func:`run_in_lockstep`, the short
+        fits of ``starts``) has its sets simulated in one batch with theirs.
         """
-        lockstep = getattr(self, "_lockstep", None)
-        if lockstep is None:
+        member = current_member()
+        if member is None:
             return self._simulate_sets(thetas, spec)
+        lockstep, index = member
         return lockstep.evaluate(
-            id(self), thetas, lambda sets: self._simulate_sets(sets, spec)
+            index, thetas, lambda sets: self._simulate_sets(sets, spec)
         )
 
     def _simulate_sets(self, thetas, spec):

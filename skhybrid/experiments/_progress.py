@@ -254,9 +254,9 @@ def attach_epoch_logger(estimator, sink, name):
     -------
     estimator : estimator
         ``estimator``, each network given an
-        :class:`~skhybrid.neural._callbacks.EpochProgress`.
+        :class:`~skhybrid.neural.EpochProgress`.
     """
-    from skhybrid.neural._callbacks import EpochProgress
+    from skhybrid.neural import EpochProgress
 
     if isinstance(sink, (str, Path)):
         sink = FileSink(sink)

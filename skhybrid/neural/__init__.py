@@ -10,6 +10,7 @@ taken from the end of the time-ordered rows. Objectives with a Ljung-Box term
 """
 
 from skhybrid.neural._base import BaseNeuralRegressor
+from skhybrid.neural._callbacks import EpochProgress
 from skhybrid.neural._cyclic import CyclicRegressor
 from skhybrid.neural._dense import DenseRegressor
 from skhybrid.neural._rnn import RNNRegressor
@@ -18,5 +19,6 @@ __all__ = [
     "BaseNeuralRegressor",
     "CyclicRegressor",
     "DenseRegressor",
+    "EpochProgress",
     "RNNRegressor",
 ]

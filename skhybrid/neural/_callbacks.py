@@ -226,11 +226,30 @@ class EpochProgress(Callback):
         self.name = name
 
     def on_train_begin(self, net, **kwargs):
-        # A fine-tuning phase (``partial_fit``) continues the history: its
-        # epochs are counted from its own start, against its own budget.
+        """Remember where this training starts in the network's history.
+
+        A fine-tuning phase (``partial_fit``) continues the history: its epochs
+        are counted from its own start, against its own budget.
+
+        Parameters
+        ----------
+        net : skorch.NeuralNet
+            The network about to train.
+        **kwargs
+            What skorch passes besides (unused).
+        """
         self.start_ = len(net.history)
 
     def on_epoch_end(self, net, **kwargs):
+        """Emit the epoch's event to the sink.
+
+        Parameters
+        ----------
+        net : skorch.NeuralNet
+            The network that ended an epoch.
+        **kwargs
+            What skorch passes besides (unused).
+        """
         row = net.history[-1]
         start = getattr(self, "start_", 0)
 

@@ -11,10 +11,7 @@ batch waits for every fit still running), so the results do not either.
 """
 
 import contextvars
-import itertools
 import threading
-
-import numpy as np
 
 __all__ = ["Lockstep", "current_member", "run_in_lockstep"]
 
@@ -48,25 +45,23 @@ class Lockstep:
         self._pending = {}
         self._results = {}
 
-    def evaluate(self, member, sets, simulate):
-        """The residuals of ``member``'s parameter sets, simulated with the others'.
+    def evaluate(self, member, request):
+        """The result of ``member``'s request, simulated with the others'.
 
         Parameters
         ----------
         member : hashable
             Which fit asks.
-        sets : ndarray of shape (n_sets, n_params)
-            Its parameter sets.
-        simulate : callable
-            ``simulate(sets) -> (n_sets, n_residuals)`` for any sets of the
-            members (they fit the same records, so any member's will do).
+        request : SetRows
+            Its parameter sets as rows of a free run
+            (:class:`~skhybrid.domain._state_space_batch.SetRows`).
 
         Returns
         -------
         residuals : ndarray of shape (n_sets, n_residuals)
         """
         with self._cond:
-            self._pending[member] = (sets, simulate)
+            self._pending[member] = request
             if len(self._pending) >= self._live:
                 self._run_batch()
             while member not in self._results:
@@ -85,18 +80,17 @@ class Lockstep:
 
     def _run_batch(self):
         """Simulate every pending request in one batch (the lock is held)."""
+        from skhybrid.domain._state_space_batch import simulate_rows
+
         members = list(self._pending)
         requests = [self._pending.pop(m) for m in members]
-        sizes = [len(sets) for sets, _ in requests]
         try:
-            R = requests[-1][1](np.vstack([sets for sets, _ in requests]))
-            bounds = np.cumsum([0, *sizes])
-            results = [R[a:b] for a, b in itertools.pairwise(bounds)]
+            results = simulate_rows(requests)
         except Exception:  # noqa: BLE001 - then each request on its own
             results = []
-            for sets, simulate in requests:
+            for request in requests:
                 try:
-                    results.append(simulate(sets))
+                    results.append(request.simulate())
                 except Exception as exc:  # noqa: BLE001 - raised in its member
                     results.append(exc)
         self._results.update(zip(members, results, strict=True))

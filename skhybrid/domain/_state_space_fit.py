@@ -15,6 +15,7 @@ from skhybrid.domain._base import _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
 from skhybrid.domain._lockstep import current_member
 from skhybrid.domain._starts import short_fit_start
+from skhybrid.domain._state_space_batch import SetRows, simulation_key
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.simulation import check_trajectories
@@ -313,12 +314,14 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         if member is None:
             return self._simulate_sets(thetas, spec)
         lockstep, index = member
-        return lockstep.evaluate(
-            index, thetas, lambda sets: self._simulate_sets(sets, spec)
-        )
+        return lockstep.evaluate(index, self._set_rows(thetas, spec))
 
     def _simulate_sets(self, thetas, spec):
         """Residuals ``(n_sets, n_residuals)`` of ``thetas``, in one simulation."""
+        return self._set_rows(thetas, spec).simulate()
+
+    def _set_rows(self, thetas, spec):
+        """The parameter sets ``thetas`` as rows of one free run of the records."""
         U, Y, mask, structure = self._records
         n_sets, n_rec = len(thetas), U.shape[0]
         per_set = [spec.to_dict(t) for t in thetas]
@@ -331,13 +334,15 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             for name in per_set[0]
         }
         U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
-        out, _ = self._simulate_records(
-            U_all, Y_all, params, structure, per_row=spec.free
+
+        def finish(out):
+            with np.errstate(all="ignore"):
+                r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
+            return _penalised(r.reshape(n_sets, -1), Y[mask])[0]
+
+        return SetRows(
+            self, simulation_key(self), structure, U_all, Y_all, params, finish
         )
-        with np.errstate(all="ignore"):
-            r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
-        r = r.reshape(n_sets, -1)
-        return _penalised(r, Y[mask])[0]
 
     def _batched_jacobian(self, spec):
         if getattr(self, "_records", None) is None:

@@ -213,14 +213,14 @@ def test_the_short_fits_run_in_lockstep_as_one_batch(record, monkeypatch):
 
     u, y = record
     calls = {"n": 0, "rows": []}
-    simulate = StateSpaceModel._simulate_sets
+    simulate = StateSpaceModel._simulate_records
 
-    def counted(self, thetas, spec):
+    def counted(self, U, *args, **kwargs):
         calls["n"] += 1
-        calls["rows"].append(len(thetas))
-        return simulate(self, thetas, spec)
+        calls["rows"].append(len(U))
+        return simulate(self, U, *args, **kwargs)
 
-    monkeypatch.setattr(StateSpaceModel, "_simulate_sets", counted)
+    monkeypatch.setattr(StateSpaceModel, "_simulate_records", counted)
     model = _model(START, starts=STARTS, starts_nfev=5)
     together = _fit(model, u, y)
     n_together, rows = calls["n"], calls["rows"]

@@ -1,0 +1,145 @@
+"""Rows of a batched free run: parameter sets of one or several fits, simulated once.
+
+A :class:`~skhybrid.domain.StateSpaceModel` fitted by simulation error
+simulates its records at several parameter sets at once (a Jacobian's steps,
+the starts' short fits, the folds of a search): each set's records become rows
+of one free run, each row with its own parameter values. :class:`SetRows` holds
+one fit's request; :func:`simulate_rows` runs any number of them, those of
+models with the same equations in one simulation, records of other lengths
+padded to the longest.
+"""
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SetRows", "simulate_rows"]
+
+#: The settings two models must share for their rows to run in one simulation.
+SHARED_SETTINGS = (
+    "rhs",
+    "output",
+    "state_names",
+    "observed",
+    "time",
+    "dt",
+    "method",
+    "n_substeps",
+    "input_points",
+    "solver_options",
+    "initial_state",
+    "estimate_observed",
+    "n_init",
+    "n_steps",
+)
+
+
+def simulation_key(model):
+    """What decides whether two models' rows can share a simulation."""
+    return repr(
+        (
+            type(model),
+            sorted(model.params),
+            *((name, getattr(model, name)) for name in SHARED_SETTINGS),
+        )
+    )
+
+
+@dataclass
+class SetRows:
+    """One fit's parameter sets as rows of a free run, and how to read the run.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+        The model whose equations simulate the rows.
+    key : str
+        :func:`simulation_key` of ``model``.
+    structure : tuple
+        The model's ``(n_states, observed, guess)``.
+    U, Y : ndarray of shape (n_rows, n_times, n_inputs) and (n_rows, n_times, \
+n_outputs)
+        Each row's inputs and measured outputs.
+    params : dict
+        Each parameter's value: a float for every row, or an array of one per
+        row.
+    finish : callable
+        ``finish(outputs) -> residuals`` of the simulated outputs ``(n_rows,
+        n_times, n_outputs)``.
+    """
+
+    model: Any
+    key: str
+    structure: tuple
+    U: np.ndarray
+    Y: np.ndarray
+    params: dict
+    finish: Any
+
+    def simulate(self):
+        """This request's residuals, simulated on its own."""
+        per_row = {name for name, v in self.params.items() if np.ndim(v)}
+        out, _ = self.model._simulate_records(
+            self.U, self.Y, self.params, self.structure, per_row=per_row
+        )
+        return self.finish(out)
+
+
+def simulate_rows(requests):
+    """The residuals of every request, those of one simulation key in one run.
+
+    Parameters
+    ----------
+    requests : list of SetRows
+        What each fit asks for.
+
+    Returns
+    -------
+    residuals : list
+        What each request's ``finish`` gives, in order.
+    """
+    results = [None] * len(requests)
+    groups = {}
+    for i, request in enumerate(requests):
+        groups.setdefault(request.key, []).append(i)
+    for members in groups.values():
+        if len(members) == 1:
+            results[members[0]] = requests[members[0]].simulate()
+            continue
+        group = [requests[i] for i in members]
+        merged = _merged(group)
+        out, _ = group[0].model._simulate_records(*merged)
+        start = 0
+        for i, request in zip(members, group, strict=True):
+            n_rows, n_times = request.U.shape[:2]
+            results[i] = request.finish(out[start : start + n_rows, :n_times])
+            start += n_rows
+    return results
+
+
+def _merged(group):
+    """``(U, Y, params, structure, per_row)`` of a group's rows stacked."""
+    n_times = max(r.U.shape[1] for r in group)
+
+    def padded(a):
+        return np.pad(a, ((0, 0), (0, n_times - a.shape[1]), (0, 0)))
+
+    U = np.concatenate([padded(r.U) for r in group])
+    Y = np.concatenate([padded(r.Y) for r in group])
+    params, per_row = {}, set()
+    for name in group[0].params:
+        values = [r.params[name] for r in group]
+        if all(np.ndim(v) == 0 for v in values) and all(
+            float(v) == float(values[0]) for v in values
+        ):
+            params[name] = values[0]
+            continue
+        params[name] = np.concatenate(
+            [
+                np.broadcast_to(v, (len(r.U),))
+                for v, r in zip(values, group, strict=True)
+            ]
+        )
+        per_row.add(name)
+    return U, Y, params, group[0].structure, per_row

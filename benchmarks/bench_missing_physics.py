@@ -168,11 +168,14 @@ def main():
     parser.add_argument("--n-jobs", type=int, default=1)
     args = parser.parse_args()
     jobs = [(m, s) for m in args.machines for s in args.seeds]
-    rows = Parallel(n_jobs=args.n_jobs, verbose=10 if args.n_jobs != 1 else 0)(
+    rows = Parallel(
+        n_jobs=args.n_jobs, return_as="generator", verbose=10 if args.n_jobs != 1 else 0
+    )(
         delayed(one_run)(m, s, args.n_records, args.n_samples, args.noise)
         for m, s in jobs
     )
-    for r in rows:
+    done = []
+    for r in rows:  # each machine and seed as it ends
         print(
             f"{r['machine']} seed {r['seed']}: "
             + ", ".join(
@@ -182,7 +185,8 @@ def main():
             ),
             flush=True,
         )
-    report(rows, args.machines)
+        done.append(r)
+    report(done, args.machines)
 
 
 if __name__ == "__main__":

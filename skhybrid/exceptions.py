@@ -15,6 +15,7 @@ __all__ = [
     "RefusedTestRecordsError",
     "SimulationDivergedError",
     "TrainingDivergedError",
+    "UnhelpfulCorrectionWarning",
 ]
 
 
@@ -112,4 +113,16 @@ class IdentifiabilityWarning(UserWarning):
     move together along that direction and the combination the data do determine,
     for example ``a*b`` when only the product of ``a`` and ``b`` enters the model.
     Fix one of them (``fixed=``), reparametrise, or collect data that separate them.
+    """
+
+
+class UnhelpfulCorrectionWarning(UserWarning):
+    """A hybrid's learned correction did not improve on its physics.
+
+    Warned by :class:`~skhybrid.hybrid.StateSpaceHybridRegressor` when no
+    trained epoch simulates its validation pieces better than the physics it
+    started from; the hybrid then keeps its start, or becomes its physics,
+    rather than a worse model, and sets ``correction_helped_ = False``. Not a
+    :class:`~sklearn.exceptions.ConvergenceWarning`: the training ended as
+    designed (early stopping), and more epochs would not change the verdict.
     """

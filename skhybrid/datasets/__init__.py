@@ -36,9 +36,14 @@ from skhybrid.datasets._loaders import (
     load_silverbox,
     load_wiener_hammerstein,
 )
+from skhybrid.datasets._missing_physics import (
+    MISSING_PHYSICS_MACHINES,
+    make_missing_physics,
+)
 from skhybrid.datasets._pendulum import make_pendulum
 
 __all__ = [
+    "MISSING_PHYSICS_MACHINES",
     "fetch_cascaded_tanks",
     "fetch_coupled_electric_drives",
     "fetch_emps",
@@ -54,5 +59,6 @@ __all__ = [
     "load_wiener_hammerstein",
     "make_dc_motor",
     "make_double_pendulum",
+    "make_missing_physics",
     "make_pendulum",
 ]

@@ -17,6 +17,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.domain import StateSpaceModel
 from skhybrid.hybrid._parameters import BoundedParameters
+from skhybrid.hybrid._state_space_fallback import keep_physics_if_better
 from skhybrid.hybrid._state_space_module import (
     EncoderModule,
     StateSpaceHybridModule,
@@ -120,7 +121,9 @@ class StateSpaceHybridRegressor(
     ``validation_fraction`` of every record, or on whole held-out records
     (``validation_split``), each simulated from its first ``n_init`` samples as
     :meth:`simulate` would, keeping the best epoch (the starting model
-    included); the divergence check, ``callbacks``, ``verbose``, ``device``,
+    included), and never a model worse there than the physics alone (see
+    ``correction_helped_``); the divergence check, ``callbacks``, ``verbose``,
+    ``device``,
     Ctrl-C (stops training, keeps the best weights, warns) and the objectives
     with a Ljung-Box term (computed within each simulated sub-sequence) work as
     for the networks. The model trains on ``device`` and simulates on the CPU.
@@ -267,6 +270,19 @@ class StateSpaceHybridRegressor(
     best_epoch_ : int
         Epoch (1-based) whose weights were kept; 0 when no epoch beat the
         starting model (the physics with a zero correction).
+    correction_helped_ : bool
+        Whether a trained epoch simulates the monitored pieces (the validation
+        pieces, or the training sub-sequences without them) better than the
+        physics itself. Where it is False the model is not worse than its
+        physics there: it keeps its start or becomes its physics (below), and
+        an :class:`~skhybrid.exceptions.UnhelpfulCorrectionWarning` says so.
+    validation_loss_ : float
+        Loss of the model kept on the monitored pieces.
+    physics_validation_loss_ : float
+        Loss of the physics alone on the same pieces (at the starting
+        parameters, from its least-squares state over each window). Where it
+        is no larger than the trained model's, the model becomes its physics:
+        the same free runs as ``physics_.simulate``.
     interrupted_ : bool
         Whether a Ctrl-C cut the training short (the best epoch so far was
         kept, and a ``UserWarning`` said so).
@@ -577,7 +593,9 @@ class StateSpaceHybridRegressor(
                     "callbacks": None,
                 },
             )
-        # 2. Joint training by the simulation error.
+        # 2. Joint training by the simulation error, from the start kept here:
+        # the hybrid never ends worse than its physics (below).
+        start = {n: v.detach().clone() for n, v in module.state_dict().items()}
         net = train_module(
             self,
             lambda: module,
@@ -611,6 +629,8 @@ class StateSpaceHybridRegressor(
         self.validation_scores_ = (
             [float(v) for v in net.history[:, "valid_loss"]] if valid else []
         )
+        monitored = windows_valid if valid is not None else windows_train
+        keep_physics_if_better(self, net, start, monitored[:2])
         with torch.no_grad():
             theta = module.params().numpy().copy()
         self.params_ = self.physics_.unpack_params(theta)
@@ -627,9 +647,20 @@ class StateSpaceHybridRegressor(
         return np.stack(out, axis=1)
 
     def _prior(self, Y, U):
-        """The physics' state at the last sample of windows ``Y``, ``U`` (or None)."""
-        if not self.physics_initial_state:
+        """The physics' state at the last sample of windows ``Y``, ``U`` (or None).
+
+        None where the model reads no physics' estimate: without
+        ``physics_initial_state``, unless the model became its physics.
+        """
+        module = getattr(self, "module_", None)
+        if not self.physics_initial_state and not getattr(
+            module, "physics_only", False
+        ):
             return None
+        return self._window_prior(Y, U)
+
+    def _window_prior(self, Y, U):
+        """The physics' state at the last sample of windows ``Y``, ``U``."""
         k = Y.shape[1]
         states, good = self._window_targets(self.physics_, Y, U, k)
         return np.where(good[:, None], states[:, k - 1], self.state_mean_)

@@ -85,6 +85,10 @@ class StateSpaceHybridModule(nn.Module):
     # Defaults for modules pickled before augmented states existed.
     n_augmented = 0
     augmented_scale = 0.1
+    #: Whether the module is its physics alone: the state from the physics'
+    #: least-squares estimate (the prior, given), no correction. Set where
+    #: the trained correction did no better than the physics.
+    physics_only = False
 
     def __init__(
         self,
@@ -144,6 +148,10 @@ class StateSpaceHybridModule(nn.Module):
     def encode(self, Yw, Uw, prior=None):
         """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
         n = Yw.shape[0]
+        if self.physics_only:
+            # The physics' own start: its least-squares state, the augmented
+            # states (which the physics never sees) at zero.
+            return torch.cat([prior, prior.new_zeros((n, self.n_augmented))], dim=1)
         last = Yw[:, -1]
         parts = [((Yw[:, :-1] - last[:, None]) / self.y_rel_scale).reshape(n, -1)]
         if self.encoder_absolute:
@@ -190,6 +198,9 @@ class StateSpaceHybridModule(nn.Module):
         """The state one sample after ``x`` under ``u``, corrected."""
         n_physics = self.n_physics_states
         xp, augmented = x[:, :n_physics], x[:, n_physics:]
+        if self.physics_only:
+            x_next = self.physics.step(xp, u, params)
+            return torch.cat([x_next, augmented], dim=1)
         if self.continuous_correction:
             # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
             # physics: one sample of the correction moves each state by about

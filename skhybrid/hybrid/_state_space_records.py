@@ -160,6 +160,11 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             x_targets = np.where(good[:, None], x_targets, self.state_mean_)
         prior = x_targets if self.physics_initial_state else None
         if valid is not None:
-            valid = (*valid, self._prior(valid[0][:, :k], valid[1][:, :k]))
+            valid_prior = (
+                self._window_prior(valid[0][:, :k], valid[1][:, :k])
+                if self.physics_initial_state
+                else None
+            )
+            valid = (*valid, valid_prior)
         self._train(module, (Ytr, Utr, prior), valid, x_targets)
         return self

@@ -531,3 +531,61 @@ def test_simulate_from_state_names_a_bad_state():
     model = _model().fit_simulation(u, y)
     with pytest.raises(ValueError, match=r"states must have shape \(4, 1\)"):
         model.simulate_from_state(u, np.zeros((4, 2)))
+
+
+def _exact_records(seed=0, n=4, length=100):
+    # The physics (a = 0.8) is the whole truth: a correction can only fit noise.
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, (n, length, 1))
+    y = np.zeros((n, length, 1))
+    for t in range(length - 1):
+        y[:, t + 1] = 0.8 * y[:, t] + u[:, t]
+    return u, y + 0.05 * rng.standard_normal(y.shape)
+
+
+@pytest.mark.parametrize("physics_initial_state", [True, False])
+def test_a_correction_that_cannot_help_leaves_the_physics(physics_initial_state):
+    from skhybrid.exceptions import UnhelpfulCorrectionWarning
+
+    u, y = _exact_records()
+    model = _model(
+        n_init=5,
+        horizon=10,
+        lr=0.05,
+        max_epochs=3,
+        physics_initial_state=physics_initial_state,
+        encoder_epochs=2,
+    )
+    with pytest.warns(UnhelpfulCorrectionWarning, match="correction_helped_ is False"):
+        model.fit_simulation(u, y)
+    assert model.correction_helped_ is False
+    assert model.validation_loss_ <= model.physics_validation_loss_
+    # On its validation pieces (the last 20 % of every record, simulated from
+    # their first n_init samples) the hybrid is no worse than its physics.
+    tail_u, tail_y = u[:, 80:], y[:, 80:]
+    hybrid = model.simulate(tail_u, tail_y[:, :5])
+    physics = model.physics_.simulate(tail_u, tail_y[:, :5])
+    error = np.sqrt(np.mean((hybrid - tail_y)[:, 5:] ** 2))
+    assert error <= np.sqrt(np.mean((physics - tail_y)[:, 5:] ** 2)) + 1e-12
+    if not physics_initial_state:
+        # The encoder's two epochs of pre-training leave the start far from
+        # the physics' own state estimate: the hybrid becomes its physics.
+        assert model.module_.physics_only
+    if model.module_.physics_only:
+        np.testing.assert_allclose(hybrid, physics, rtol=0, atol=1e-12)
+        assert model.params_ == model.params_init_
+
+
+def test_a_correction_that_helps_says_so():
+    import warnings
+
+    from skhybrid.exceptions import UnhelpfulCorrectionWarning
+
+    u, y = _records(length=120)  # the physics misses 0.1 sin(3 y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnhelpfulCorrectionWarning)
+        model = _model(horizon=10, max_epochs=20).fit_simulation(u, y)
+    assert model.correction_helped_ is True
+    assert model.best_epoch_ > 0
+    assert model.validation_loss_ < model.physics_validation_loss_
+    assert not model.module_.physics_only

@@ -84,16 +84,7 @@ class Lockstep:
 
         members = list(self._pending)
         requests = [self._pending.pop(m) for m in members]
-        try:
-            results = simulate_rows(requests)
-        except Exception:  # noqa: BLE001 - then each request on its own
-            results = []
-            for request in requests:
-                try:
-                    results.append(request.simulate())
-                except Exception as exc:  # noqa: BLE001 - raised in its member
-                    results.append(exc)
-        self._results.update(zip(members, results, strict=True))
+        self._results.update(zip(members, simulate_rows(requests), strict=True))
         self._cond.notify_all()
 
 

@@ -97,25 +97,44 @@ def simulate_rows(requests):
     Returns
     -------
     residuals : list
-        What each request's ``finish`` gives, in order.
+        What each request's ``finish`` gives, in order, or the exception its
+        simulation raised (rows of one key that fail together are simulated
+        again each on its own).
     """
     results = [None] * len(requests)
     groups = {}
     for i, request in enumerate(requests):
         groups.setdefault(request.key, []).append(i)
     for members in groups.values():
-        if len(members) == 1:
-            results[members[0]] = requests[members[0]].simulate()
-            continue
         group = [requests[i] for i in members]
-        merged = _merged(group)
-        out, _ = group[0].model._simulate_records(*merged)
-        start = 0
-        for i, request in zip(members, group, strict=True):
-            n_rows, n_times = request.U.shape[:2]
-            results[i] = request.finish(out[start : start + n_rows, :n_times])
-            start += n_rows
+        for i, result in zip(members, _simulate_group(group), strict=True):
+            results[i] = result
     return results
+
+
+def _simulate_group(group):
+    """The results of requests of one key: one run, or each alone if it fails."""
+    if len(group) == 1:
+        return [_outcome(group[0].simulate)]
+    try:
+        out, _ = group[0].model._simulate_records(*_merged(group))
+    except Exception:  # noqa: BLE001 - then each request on its own
+        return [_outcome(request.simulate) for request in group]
+    results, start = [], 0
+    for request in group:
+        n_rows, n_times = request.U.shape[:2]
+        rows = out[start : start + n_rows, :n_times]
+        results.append(_outcome(lambda r=request, rows=rows: r.finish(rows)))
+        start += n_rows
+    return results
+
+
+def _outcome(compute):
+    """What ``compute()`` returns, or the exception it raises."""
+    try:
+        return compute()
+    except Exception as exc:  # noqa: BLE001 - raised in the fit that asked
+        return exc
 
 
 def _merged(group):

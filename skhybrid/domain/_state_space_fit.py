@@ -340,9 +340,12 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
                 r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
             return _penalised(r.reshape(n_sets, -1), Y[mask])[0]
 
-        return SetRows(
-            self, simulation_key(self), structure, U_all, Y_all, params, finish
-        )
+        # The values every row shares (the fixed parameters) are part of the
+        # key: rows of other fits join only where they agree (a continuation's
+        # stages fix a parameter at other values).
+        shared = sorted((k, repr(v)) for k, v in params.items() if np.ndim(v) == 0)
+        key = (simulation_key(self), *shared)
+        return SetRows(self, key, structure, U_all, Y_all, params, finish)
 
     def _batched_jacobian(self, spec):
         if getattr(self, "_records", None) is None:

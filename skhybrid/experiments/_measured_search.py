@@ -11,7 +11,6 @@ records and kept in the run folder's cache.
 """
 
 import contextlib
-import functools
 import hashlib
 import logging
 import pickle
@@ -22,13 +21,13 @@ from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
-import joblib
 import numpy as np
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import FitFailedWarning
 
 from skhybrid.experiments._fitting import interrupts_raise, physical_params
 from skhybrid.experiments._measured_zoo import N_SPLITS, zoo
+from skhybrid.experiments._pickling import dump_fit, load_fit, main_objects
 from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._store import _write_atomic
 from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
@@ -123,8 +122,10 @@ class _ZooCandidate(BaseEstimator):
         ).hexdigest()
         cached = _cache_path(ctx, self.cache_key_) if self.model.deterministic else None
         if cached is not None and cached.is_file():
-            self.model_ = joblib.load(cached)
-            return self
+            model = _read(cached)
+            if model is not None:
+                self.model_ = model
+                return self
         self.model_ = self.model.fit(candidate, list(U), list(Y), ctx, deps, None)
         if cached is not None:
             _keep(self.model_, cached)
@@ -154,17 +155,36 @@ class _ZooCandidate(BaseEstimator):
 
 
 def _cache_path(ctx, key):
-    return None if ctx.cache is None else Path(ctx.cache) / f"{key}.joblib"
+    return None if ctx.cache is None else Path(ctx.cache) / f"{key}.pickle"
 
 
 def _keep(model, path):
     """Keep a deterministic fit in the run's cache (best effort: a model that
-    cannot be stored is fitted again where it is needed)."""
+    cannot be stored is fitted again where it is needed).
+
+    Written in whichever process fitted it, a worker of a search included: the
+    functions and classes of the user's script are stored by name
+    (:func:`~skhybrid.experiments._pickling.dump_fit`), which a worker's copies
+    of them, received by value, allow.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        _write_atomic(path, lambda p: joblib.dump(model, p))
+        _write_atomic(path, lambda p: dump_fit(model, p))
     except (OSError, pickle.PicklingError, AttributeError, TypeError) as exc:
         logger.info("not cached (%s): %s", path.name, exc)
+
+
+def _read(path):
+    """A fit kept in the run's cache, or None where it cannot be read here.
+
+    The functions and classes of the user's script it names are this
+    process's ``__main__``'s (in a worker, those the spec named there).
+    """
+    try:
+        return load_fit(path)
+    except (OSError, EOFError, pickle.UnpicklingError, AttributeError) as exc:
+        logger.info("cached fit not read (%s): %s", path.name, exc)
+        return None
 
 
 def _on_physics(model, ctx, candidates, physics, key=None, random_state=None):
@@ -350,27 +370,6 @@ def _n_epochs(model):
     return None
 
 
-def _callables(value, seen=None):
-    """Every function reachable through an estimator's parameters."""
-    seen = set() if seen is None else seen
-    if id(value) in seen:
-        return
-    seen.add(id(value))
-    if hasattr(value, "get_params") and not isinstance(value, type):
-        for v in value.get_params(deep=False).values():
-            yield from _callables(v, seen)
-    elif isinstance(value, dict):
-        for v in value.values():
-            yield from _callables(v, seen)
-    elif isinstance(value, (list, tuple)):
-        for v in value:
-            yield from _callables(v, seen)
-    elif isinstance(value, functools.partial):
-        yield from _callables(value.func, seen)
-    elif callable(value):
-        yield value
-
-
 def expose_main_functions(spec):
     """Make the spec's functions written in the user's script findable by name.
 
@@ -386,11 +385,9 @@ def expose_main_functions(spec):
         The system whose physics, inputs map and candidates are searched.
     """
     main = sys.modules["__main__"]
-    for func in _callables([spec.physics, spec.physics_inputs]):
-        name = getattr(func, "__qualname__", "")
-        in_main = getattr(func, "__module__", None) == "__main__"
-        if in_main and name.isidentifier() and not hasattr(main, name):
-            setattr(main, name, func)
+    for name, obj in main_objects(spec.physics, spec.physics_inputs).items():
+        if not hasattr(main, name):
+            setattr(main, name, obj)
 
 
 @contextlib.contextmanager

@@ -329,7 +329,7 @@ def test_ctrl_c_keeps_finished_models_and_resume_skips_them(
     assert _finished(out) == ["linear ARX", "physics"]  # not the dense NARX
     # The physics' fits of every fold are kept in the run's cache: the resume
     # and the models built on the physics read them instead of fitting again.
-    assert any((out / "cache").glob("*.joblib"))
+    assert any((out / "cache").glob("*.pickle"))
     assert not (out / "results.csv").exists()
     assert not (out / ".lock").exists()
 

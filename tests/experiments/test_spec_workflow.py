@@ -738,26 +738,86 @@ def test_a_state_space_model_without_n_init_starts_from_20_samples_alone():
         model.fit_simulation(u, np.ones((20, 1)))
 
 
+#: The models of the family built on the physics (and the physics).
+ON_PHYSICS = (
+    "physics",
+    "physics + linear",
+    "physics + dense",
+    "physics + dense ensemble",
+    "state-space hybrid",
+)
+
+
+# About 15 s each on 2 cores. The searches' workers are where the fits were
+# fitted again (issue 54): that case runs by default, the others with
+# `pytest -m slow`.
+@pytest.mark.parametrize(
+    "n_jobs, resume",
+    [
+        pytest.param(1, False, marks=pytest.mark.slow),
+        (2, False),
+        pytest.param(2, True, marks=pytest.mark.slow),
+    ],
+    ids=["n_jobs=1", "n_jobs=2", "n_jobs=2, resumed"],
+)
 def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
-    machine, tmp_path, monkeypatch
+    machine, tmp_path, monkeypatch, n_jobs, resume
 ):
-    from skhybrid.experiments import _measured_zoo
+    import sys
+
+    from skhybrid.experiments import _measured_system, _measured_zoo
+    from skhybrid.experiments._measured_system import MeasuredSystem
     from skhybrid.experiments._spec import records_digest
 
-    fits = []
+    # The equations written in the user's script (``__main__``), as
+    # docs/own_machine.md shows: the workers receive them by value.
+    monkeypatch.setattr(machine.oscillator, "__module__", "__main__")
+    monkeypatch.setattr(
+        sys.modules["__main__"], "oscillator", machine.oscillator, raising=False
+    )
+    # Every fit of the physics, in this process or in a worker (the zoo's fit
+    # function travels to the workers by value, with the log's path).
+    log = tmp_path / "physics-fits.log"
     fit_physics = _measured_zoo._fit_physics
 
     def counting(segment, U, Y, ctx, deps, start):
-        fits.append((segment, records_digest(U, Y)))
+        with open(log, "a") as f:
+            f.write(f"{segment} {records_digest(U, Y)}\n")
         return fit_physics(segment, U, Y, ctx, deps, start)
 
     monkeypatch.setattr(_measured_zoo, "_fit_physics", counting)
+    family = MeasuredSystem.model_zoo
+    monkeypatch.setattr(
+        MeasuredSystem,
+        "model_zoo",
+        lambda self, settings: {
+            name: model
+            for name, model in family(self, settings).items()
+            if name in ON_PHYSICS
+        },
+    )
     out = tmp_path / "run"
-    spec = machine.make_spec(out=out, hybrids=None, segments=(None, 100))
-    summary = run_system(spec, out, quick=True, seeds=[0, 1], n_jobs=1)
-    # Two seeds, and three models built on the physics: still each segment
-    # candidate fitted once on each fold's pieces, and the chosen one once on
-    # the whole records.
+    spec = machine.make_spec(out=out, segments=(None, 100))
+    if resume:  # Ctrl-C once the physics and its linear correction are kept
+        fit_model = _measured_system.fit_model
+
+        def interrupted(name, *args, **kwargs):
+            if name == "physics + dense":
+                raise KeyboardInterrupt
+            return fit_model(name, *args, **kwargs)
+
+        monkeypatch.setattr(_measured_system, "fit_model", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            run_system(spec, out, quick=True, seeds=[0, 1], n_jobs=n_jobs)
+        monkeypatch.setattr(_measured_system, "fit_model", fit_model)
+    summary = run_system(
+        spec, out, quick=True, seeds=[0, 1], n_jobs=n_jobs, resume=resume
+    )
+    assert set(summary["fits"]["1"]) == set(ON_PHYSICS)
+    # Two seeds, and four models built on the physics, on any number of
+    # workers and across a resume: still each segment candidate fitted once on
+    # each fold's pieces, and the chosen one once on the whole records.
+    fits = log.read_text().splitlines()
     n_folds = summary["fits"]["0"]["physics"]["selection"]["cv_folds"]
     assert len(fits) == len(set(fits)) == 1 * n_folds + 1  # quick: one segment
     assert summary["chosen_model"]["0"] == min(

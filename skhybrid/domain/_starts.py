@@ -20,8 +20,8 @@ from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 
-from skhybrid.domain._lockstep import run_in_lockstep
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
+from skhybrid.utils._lockstep import run_in_lockstep
 
 #: Errors of a short fit that drop its start instead of stopping the fit.
 START_ERRORS = (ValueError, ArithmeticError, SimulationDivergedError)

@@ -294,6 +294,11 @@ default=None
     3.0
     """
 
+    #: Fits of several records' sets run side by side gain from it: a search
+    #: fits its folds in lockstep, their free runs simulated as one batch
+    #: (:class:`~skhybrid.model_selection.SimulationSearchCV`).
+    fits_in_lockstep = True
+
     _parameter_constraints = {
         **DomainModel._parameter_constraints,
         "rhs": [callable],

@@ -77,6 +77,11 @@ n_outputs)
     params: dict
     finish: Any
 
+    @staticmethod
+    def simulate_many(requests):
+        """:func:`simulate_rows` of ``requests`` (what a lockstep group calls)."""
+        return simulate_rows(requests)
+
     def simulate(self):
         """This request's residuals, simulated on its own."""
         per_row = {name for name, v in self.params.items() if np.ndim(v)}

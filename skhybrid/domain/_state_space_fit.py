@@ -13,12 +13,12 @@ import numpy as np
 
 from skhybrid.domain._base import _central_differences, _ParameterSpec
 from skhybrid.domain._continuation import continued_start
-from skhybrid.domain._lockstep import current_member
 from skhybrid.domain._starts import short_fit_start
 from skhybrid.domain._state_space_batch import SetRows, simulation_key
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.simulation import check_trajectories
+from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._sklearn_compat import _fit_context
 from skhybrid.utils._transaction import transactional
 

@@ -80,6 +80,17 @@ class _ZooCandidate(BaseEstimator):
         self.physics = physics
         self.random_state = random_state
 
+    @property
+    def fits_in_lockstep(self):
+        """Whether the search fits this model's folds side by side.
+
+        Their free runs are then simulated as one batch
+        (:class:`~skhybrid.model_selection.SimulationSearchCV`); the model's
+        ``lockstep`` says so (the physics, where it is a StateSpaceModel).
+        """
+        lockstep = getattr(self.model, "lockstep", None)
+        return lockstep is not None and bool(lockstep(self.ctx))
+
     def fit(self, U, Y):
         """Fit the candidate on records ``U, Y``.
 

@@ -239,6 +239,11 @@ class ZooModel:
         for a model chosen otherwise than by searching its candidates (the
         family's stack, from the other models' out-of-fold runs); None
         searches ``candidates`` with ``fit``.
+    lockstep : callable or None, default=None
+        ``lockstep(ctx)`` says whether the model's fits on a search's folds
+        gain from running side by side, their free runs simulated as one
+        batch (a physics that is a
+        :class:`~skhybrid.domain.StateSpaceModel`); None: they do not.
     """
 
     fit: object
@@ -249,6 +254,7 @@ class ZooModel:
     notes: dict = field(default_factory=dict)
     epochs: object = None
     choose: object = None
+    lockstep: object = None
 
 
 # -- the fits ------------------------------------------------------------------------
@@ -427,6 +433,13 @@ def _fit_physics(segment, U, Y, ctx, deps, start):
     return TransformedInputSimulator(model, system.physics_inputs)
 
 
+def _physics_in_lockstep(ctx):
+    """Whether the system's physics fits in lockstep (built on the first record)."""
+    U_model = _model_inputs(ctx.system, ctx.U[:1])
+    model = ctx.system.physics(U_model, ctx.Y[:1], ctx.dt, quick=ctx.quick)
+    return bool(getattr(model, "fits_in_lockstep", False))
+
+
 def _fit_narx(make_regressor, n, U, Y, ctx, deps, start):
     model = _watch(NARXSimulator(make_regressor(ctx), n), ctx)
     return model.fit(list(U), list(Y))
@@ -575,7 +588,11 @@ def zoo(system, quick=False):
     """
     models = {
         "physics": ZooModel(
-            _fit_physics, _segments, deterministic=True, choice="segment"
+            _fit_physics,
+            _segments,
+            deterministic=True,
+            choice="segment",
+            lockstep=_physics_in_lockstep,
         ),
         "linear ARX": ZooModel(
             partial(_fit_narx, _arx_ridge),

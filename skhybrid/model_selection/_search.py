@@ -15,6 +15,7 @@ import warnings
 from numbers import Integral
 
 import numpy as np
+from joblib import effective_n_jobs
 from scipy.stats import rankdata
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import FitFailedWarning
@@ -34,6 +35,7 @@ from skhybrid.model_selection._stacking import (
     _as_2d,
     _cross_fitted_weights,
 )
+from skhybrid.utils._lockstep import run_in_lockstep
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
     Interval,
@@ -181,6 +183,44 @@ def _fit_and_score(
             out["error"] = "simulate: the free run is not finite"
     out["score_time"] = time.perf_counter() - t1
     return out
+
+
+def _in_lockstep(estimator, factory):
+    """Whether a candidate's folds are fitted side by side, simulated as one.
+
+    An estimator whose ``fits_in_lockstep`` is true (a
+    :class:`~skhybrid.domain.StateSpaceModel`, a :class:`SimulationFit` of
+    one) spends its fit in free runs whose cost hardly grows with the rows
+    run at once.
+    """
+    return not factory and bool(getattr(estimator, "fits_in_lockstep", False))
+
+
+def _fold_groups(n_splits, n_jobs, n_tasks):
+    """The folds of each of ``n_tasks`` tasks in lockstep, split into groups.
+
+    As few groups as keep every worker busy: one per task where the tasks are
+    at least as many as the workers, else the workers shared out among them
+    (a group's fits cost little more than one, so fewer, larger groups finish
+    sooner where the workers have other jobs to run).
+    """
+    workers = max(1, effective_n_jobs(n_jobs))
+    n_groups = min(n_splits, max(1, -(-workers // max(1, n_tasks))))
+    return [[int(k) for k in g] for g in np.array_split(np.arange(n_splits), n_groups)]
+
+
+def _in_lockstep_on_folds(func, calls):
+    """``func(*args)`` for each of ``calls``, run in lockstep (one batch a step).
+
+    The fits run in threads of this process, their free runs simulated in one
+    batch (:func:`~skhybrid.domain.run_in_lockstep`); each returns what
+    ``func`` returns. An interrupt or error ``func`` does not catch is raised.
+    """
+    outcomes = run_in_lockstep(calls, lambda args: func(*args))
+    for outcome in outcomes:
+        if isinstance(outcome, BaseException):
+            raise outcome
+    return outcomes
 
 
 def _best_has(attr):
@@ -555,19 +595,20 @@ class SimulationSearchCV(BaseEstimator):
         ]
         parallel = Parallel(n_jobs=self.n_jobs, verbose=self.verbose)
         if any(factory for *_, factory in rows):
-            kept = parallel(
-                delayed(_keeping_warnings)(_fit_physics, self.physics, u, y)
-                for (u, y), _ in pieces
-            )
-            for _, warned in kept:
-                _warn_again(warned)
-            physics = [fit for fit, _ in kept]
+            physics = self._run_on_folds(
+                parallel,
+                [(_fit_physics, _in_lockstep(self.physics, False))],
+                lambda row, k: (self.physics, *pieces[k][0]),
+                n_splits,
+            )[0]
         else:
             physics = [(None, None, 0.0)] * n_splits
         self.physics_fit_time_ = np.array([t for *_, t in physics])
-        out = parallel(
-            delayed(_keeping_warnings)(
-                _fit_and_score,
+
+        def arguments(i, k):
+            _, est, settings, factory = rows[i]
+            seed = None if self.random_state is None else self.random_state + k
+            return (
                 est,
                 settings,
                 factory,
@@ -575,15 +616,15 @@ class SimulationSearchCV(BaseEstimator):
                 *pieces[k][0],
                 *pieces[k][1],
                 n_init,
-                None if self.random_state is None else self.random_state + k,
+                seed,
             )
-            for _, est, settings, factory in rows
-            for k in range(n_splits)
+
+        out = self._run_on_folds(
+            parallel,
+            [(_fit_and_score, _in_lockstep(est, f)) for _, est, _, f in rows],
+            arguments,
+            n_splits,
         )
-        for _, warned in out:
-            _warn_again(warned)
-        out = [row for row, _ in out]
-        out = [out[i * n_splits : (i + 1) * n_splits] for i in range(len(rows))]
         params = [{"candidate": name, **settings} for name, _, settings, _ in rows]
         if self.stack:
             targets = [_scored(y_test, n_init) for _, (_, y_test) in pieces]
@@ -616,6 +657,39 @@ class SimulationSearchCV(BaseEstimator):
             self.best_estimator_ = self._refit(rows, U, Y)
             self.refit_time_ = time.perf_counter() - t0
         return self
+
+    def _run_on_folds(self, parallel, tasks, arguments, n_splits):
+        """Every task on every fold, through joblib; ``out[task][fold]``.
+
+        ``tasks`` holds ``(func, lockstep)`` pairs and ``arguments(task,
+        fold)`` gives ``func``'s arguments. A task in lockstep runs its folds
+        as one job per group (:func:`_fold_groups`), their fits side by side
+        with their free runs simulated as one batch; any other runs one job
+        per fold.
+        """
+        groups = _fold_groups(
+            n_splits, self.n_jobs, sum(lockstep for _, lockstep in tasks)
+        )
+        jobs, slots = [], []
+        for i, (func, lockstep) in enumerate(tasks):
+            if lockstep:
+                for group in groups:
+                    calls = [arguments(i, k) for k in group]
+                    jobs.append(
+                        delayed(_keeping_warnings)(_in_lockstep_on_folds, func, calls)
+                    )
+                    slots.append([(i, k) for k in group])
+            else:
+                for k in range(n_splits):
+                    jobs.append(delayed(_keeping_warnings)(func, *arguments(i, k)))
+                    slots.append([(i, k)])
+        out = [[None] * n_splits for _ in tasks]
+        for slot, (result, warned) in zip(slots, parallel(jobs), strict=True):
+            _warn_again(warned)
+            results = result if len(slot) > 1 or tasks[slot[0][0]][1] else [result]
+            for (i, k), value in zip(slot, results, strict=True):
+                out[i][k] = value
+        return out
 
     def _stack_row(self, out, targets):
         """Cross-fitted scores of the stack of the settings run on every fold."""

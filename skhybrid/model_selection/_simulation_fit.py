@@ -156,6 +156,15 @@ class SimulationFit(BaseEstimator):
         self.estimator = estimator
         self.segment = segment
 
+    @property
+    def fits_in_lockstep(self):
+        """Whether the estimator's fits gain from running side by side.
+
+        :class:`SimulationSearchCV` then fits a candidate's folds in lockstep,
+        their free runs simulated as one batch.
+        """
+        return bool(getattr(self.estimator, "fits_in_lockstep", False))
+
     @_fit_context(prefer_skip_nested_validation=False)
     def fit(self, U, Y):
         """Fit a clone of the estimator by its free-run error on the records.

@@ -113,6 +113,12 @@ def machine(tmp_path, monkeypatch):
     (tmp_path / "toy_machine.py").write_text(MACHINE)
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.chdir(tmp_path)
+    # joblib's workers are reused across tests: those started by an earlier
+    # test lack this folder on their path and could not import the machine;
+    # new ones are started with it, as a user's script starts them.
+    from joblib.externals.loky import get_reusable_executor
+
+    get_reusable_executor().shutdown(wait=True)
     import importlib
 
     import toy_machine

@@ -151,3 +151,46 @@ def test_record_meta_estimators_api_checks():
     estimator_checks.check_set_params(name, est)
     estimator_checks.check_estimator_cloneable(name, est)
     estimator_checks.check_do_not_raise_errors_in_init_or_set_params(name, est)
+
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_a_candidates_folds_run_in_lockstep_as_one_batch(records, n_jobs, monkeypatch):
+    # A StateSpaceModel's folds are fitted side by side, each step's free runs
+    # of every fold simulated together (rows of several folds in one run); the
+    # scores are those of the folds fitted one by one.
+    U, Y = records
+    grid = {"segment": [None, 60]}
+
+    def search():
+        return SimulationSearchCV(
+            [("physics", SimulationFit(_physics({"k": 2.0, "c": 1.0})), grid)],
+            n_init=N_INIT,
+            n_jobs=n_jobs,
+        ).fit(U, Y)
+
+    rows = []
+    simulate = StateSpaceModel._simulate_records
+
+    def counted(self, U_rows, *args, **kwargs):
+        rows.append(len(U_rows))
+        return simulate(self, U_rows, *args, **kwargs)
+
+    if n_jobs == 1:
+        monkeypatch.setattr(StateSpaceModel, "_simulate_records", counted)
+    together = search()
+    assert SimulationFit(_physics({"k": 1.0, "c": 1.0})).fits_in_lockstep
+    monkeypatch.setattr(StateSpaceModel, "fits_in_lockstep", False)
+    n_together, rows_together = len(rows), list(rows)
+    rows.clear()
+    apart = search()
+    if n_jobs == 1:
+        # Fewer, wider simulations: several folds' sets in one run.
+        assert n_together < len(rows)
+        assert max(rows_together) > max(rows)
+    for k in range(together.n_splits_):
+        assert_allclose(
+            together.cv_results_[f"split{k}_test_score"],
+            apart.cv_results_[f"split{k}_test_score"],
+            rtol=1e-6,
+        )
+    assert together.best_params_ == apart.best_params_

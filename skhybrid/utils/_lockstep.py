@@ -12,6 +12,7 @@ batch waits for every fit still running), so the results do not either.
 
 import contextvars
 import threading
+import warnings
 
 __all__ = ["Lockstep", "current_member", "run_in_lockstep"]
 
@@ -52,9 +53,11 @@ class Lockstep:
         ----------
         member : hashable
             Which fit asks.
-        request : SetRows
-            Its parameter sets as rows of a free run
-            (:class:`~skhybrid.domain._state_space_batch.SetRows`).
+        request : object
+            What it asks for: an object whose type has
+            ``simulate_many(requests)`` (a
+            :class:`~skhybrid.domain.StateSpaceModel` fit's parameter sets as
+            rows of a free run).
 
         Returns
         -------
@@ -79,12 +82,20 @@ class Lockstep:
                 self._run_batch()
 
     def _run_batch(self):
-        """Simulate every pending request in one batch (the lock is held)."""
-        from skhybrid.domain._state_space_batch import simulate_rows
+        """Simulate every pending request in one batch (the lock is held).
 
+        Requests of one type are handed together to that type's
+        ``simulate_many(requests)``, which returns one result (or exception)
+        per request.
+        """
         members = list(self._pending)
         requests = [self._pending.pop(m) for m in members]
-        self._results.update(zip(members, simulate_rows(requests), strict=True))
+        by_type = {}
+        for member, request in zip(members, requests, strict=True):
+            by_type.setdefault(type(request), []).append((member, request))
+        for kind, pairs in by_type.items():
+            results = kind.simulate_many([request for _, request in pairs])
+            self._results.update(zip((m for m, _ in pairs), results, strict=True))
         self._cond.notify_all()
 
 
@@ -111,6 +122,10 @@ def run_in_lockstep(models, fit):
     """
     lockstep = Lockstep(len(models))
     outcomes = [None] * len(models)
+    # warnings.catch_warnings is not thread-safe: fits that catch warnings in
+    # threads can leave the filters and showwarning of the last to exit; they
+    # are put back as they were once every fit has ended.
+    filters, showwarning = warnings.filters[:], warnings.showwarning
 
     def work(i, model):
         _MEMBER.set((lockstep, i))
@@ -127,8 +142,13 @@ def run_in_lockstep(models, fit):
         )
         for i, model in enumerate(models)
     ]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join()
+    try:
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        warnings.filters[:] = filters
+        warnings.showwarning = showwarning
+        warnings._filters_mutated()
     return outcomes

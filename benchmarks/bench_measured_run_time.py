@@ -10,8 +10,11 @@ are times only.
 The phases are read from the run folder's files as each was written: the
 first seed's search (its last model's record), the further seeds' refits (up
 to ``selection.json``), the free runs of the stand-in test records (the last
-``test-predictions.npz``), and the report. Run it at two commits (a clean
-clone of each, one after the other on a quiet machine) to compare them.
+``test-predictions.npz``), and the report. Then, for the first seed, each
+model's search and refit time and a fold's time by candidate (the wall time of
+its group where a search fits folds side by side), and the peak memory of this
+process and of its workers. Run it at two commits (a clean clone of each, one
+after the other on a quiet machine) to compare them.
 
 Run: ``python benchmarks/bench_measured_run_time.py friction-damper --data
 ../shared/data``.
@@ -19,10 +22,14 @@ Run: ``python benchmarks/bench_measured_run_time.py friction-damper --data
 
 import argparse
 import dataclasses
+import json
 import os
+import resource
 import tempfile
 import time
 from pathlib import Path
+
+from joblib.externals.loky import get_reusable_executor
 
 from skhybrid.benchmarks import benchmark_spec
 from skhybrid.experiments import run_system
@@ -67,6 +74,27 @@ def main(argv=None):
         ("total", start, end),
     ]:
         print(f"  {label:38s} {b - a:8.1f} s")
+    _print_models(models / f"{spec.name}-seed-0")
+    # The workers' peak counts once they have ended.
+    get_reusable_executor().shutdown(wait=True)
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    print(f"  peak memory: this process {own:.0f} MiB, a worker {workers:.0f} MiB")
+
+
+def _print_models(folder):
+    """Each model's search and refit time at the first seed, from its record."""
+    print("  first seed, by model:       search    refit   a fold, by candidate")
+    for path in sorted(folder.glob("*.json"), key=lambda p: p.stat().st_mtime):
+        fit = json.loads(path.read_text()).get("fit", {})
+        timing = fit.get("timing") or {}
+        refit = float(timing.get("refit_seconds", 0.0))
+        search = float(fit.get("fit_time") or 0.0) - refit
+        folds = ", ".join(
+            f"{key} {seconds:.1f} s"
+            for key, seconds in (timing.get("fold_seconds_by_candidate") or {}).items()
+        )
+        print(f"    {path.stem:24s} {search:8.1f} s {refit:7.1f} s   {folds}")
 
 
 if __name__ == "__main__":

@@ -316,6 +316,19 @@ def choose_and_refit(model, ctx, deps):
         "fitted_on": "the whole estimation records",
         "validation_start": int(n_init),
         "deterministic": bool(model.deterministic),
+        # What the search cost (fit_model moves it out of the selection, whose
+        # hash must not depend on it): a fold's fit and free runs by candidate
+        # (the wall time of its group where folds run side by side), the refit.
+        "fold_seconds_by_candidate": {
+            str(k): float(f + t)
+            for k, f, t in zip(
+                keys,
+                results["mean_fit_time"],
+                results["mean_score_time"],
+                strict=True,
+            )
+        },
+        "refit_seconds": float(getattr(search, "refit_time_", 0.0)),
         **model.notes,
     }
     if errors:
@@ -449,7 +462,9 @@ def fit_model(name, model, ctx, deps, sink=None):
     out : dict
         ``estimator``, ``extras`` (none),
         ``predictions`` (empty: no test record is simulated yet), ``fit_time``,
-        ``n_epochs``, ``params``, ``warnings``, ``validation_rmse``,
+        ``timing`` (a fold's seconds by candidate and the refit's, where the
+        model was searched), ``n_epochs``, ``params``, ``warnings``,
+        ``validation_rmse``,
         ``selection`` and ``validation_runs`` (the chosen candidate's free runs
         over the held-out blocks of each fold).
     """
@@ -467,6 +482,11 @@ def fit_model(name, model, ctx, deps, sink=None):
         start = time.perf_counter()
         chosen, selection, runs = choose_and_refit(model, ctx, deps)
         fit_time = time.perf_counter() - start
+    timing = {
+        key: selection.pop(key)
+        for key in ("fold_seconds_by_candidate", "refit_seconds")
+        if key in selection
+    }
     if chosen is None:
         selection.setdefault("failed", "every candidate's fit failed")
     messages = sorted(
@@ -491,6 +511,7 @@ def fit_model(name, model, ctx, deps, sink=None):
         "extras": extras,
         "predictions": {},
         "fit_time": fit_time,
+        "timing": timing,
         "n_epochs": None if chosen is None else _n_epochs(chosen),
         "params": params,
         "warnings": messages,

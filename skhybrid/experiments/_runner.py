@@ -404,8 +404,8 @@ def _record(result, name, out, folder):
         "n_epochs": out["n_epochs"],
         "warnings": out["warnings"],
     }
-    # A measured model's choice by cross-validation.
-    for key in ("validation_rmse", "selection"):
+    # A measured model's choice by cross-validation, and what its search cost.
+    for key in ("validation_rmse", "selection", "timing"):
         if key in out:
             fit[key] = out[key]
     predictions = {

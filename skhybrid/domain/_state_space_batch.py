@@ -16,6 +16,9 @@ import numpy as np
 
 __all__ = ["SetRows", "simulate_rows"]
 
+#: Most row-samples (rows times the longest record) of one merged free run.
+MAX_RUN_SAMPLES = 2**21
+
 #: The settings two models must share for their rows to run in one simulation.
 SHARED_SETTINGS = (
     "rhs",
@@ -111,10 +114,31 @@ def simulate_rows(requests):
     for i, request in enumerate(requests):
         groups.setdefault(request.key, []).append(i)
     for members in groups.values():
-        group = [requests[i] for i in members]
-        for i, result in zip(members, _simulate_group(group), strict=True):
-            results[i] = result
+        for chunk in _chunks(members, requests):
+            group = [requests[i] for i in chunk]
+            for i, result in zip(chunk, _simulate_group(group), strict=True):
+                results[i] = result
     return results
+
+
+def _chunks(members, requests):
+    """The members of one key packed into runs of at most :data:`MAX_RUN_SAMPLES`.
+
+    Beyond that many row-samples a free run costs in proportion to its rows,
+    so merging saves nothing and only holds more memory at once.
+    """
+    chunks, current, rows, longest = [], [], 0, 0
+    for i in members:
+        n_rows, n_times = requests[i].U.shape[:2]
+        grown = (rows + n_rows) * max(longest, n_times)
+        if current and grown > MAX_RUN_SAMPLES:
+            chunks.append(current)
+            current, rows, longest = [], 0, 0
+        current.append(i)
+        rows, longest = rows + n_rows, max(longest, n_times)
+    if current:
+        chunks.append(current)
+    return chunks
 
 
 def _simulate_group(group):

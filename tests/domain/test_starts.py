@@ -235,3 +235,31 @@ def test_the_short_fits_run_in_lockstep_as_one_batch(record, monkeypatch):
     assert n_together < calls["n"]
     assert max(rows) > max(calls["rows"])
     assert together.params_["w"] == pytest.approx(apart.params_["w"], rel=1e-9)
+
+
+def test_rows_of_several_fits_run_as_one_and_each_reads_its_own(record, monkeypatch):
+    # Requests of other records (other lengths) and parameter sets are merged
+    # into one run, padded; each gets the residuals it gets alone. Past the
+    # size limit they are run in chunks, with the same results.
+    from skhybrid.domain import _state_space_batch as batch
+
+    u, y = record
+    models = []
+    for n, w in ((300, 0.3), (220, 0.25)):
+        model = _model({"w": w, "r": 0.998})
+        _fit(model.set_params(max_nfev=1), u[:n], y[:n])
+        models.append(model)
+    requests = []
+    for model, n in zip(models, (300, 220), strict=True):
+        # The records a fit holds while it runs (fit_simulation's own).
+        mask = np.ones((1, n), bool)
+        model._records = (u[None, :n], y[None, :n], mask, model._structure())
+        thetas = np.array([[0.3], [0.31], [0.29]])
+        requests.append(model._set_rows(thetas, model._spec))
+    alone = [r.simulate() for r in requests]
+    for limit in (2**21, 500):
+        monkeypatch.setattr(batch, "MAX_RUN_SAMPLES", limit)
+        together = batch.simulate_rows(requests)
+        for a, b in zip(alone, together, strict=True):
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14)
+    assert len(batch._chunks([0, 1], requests)) == 2  # 500 splits them

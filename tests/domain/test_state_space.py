@@ -264,9 +264,8 @@ def test_latent_state_fit_by_simulation_error():
     np.testing.assert_allclose(windowed.predict(X), target[:, 0], atol=1e-3)
 
 
-def test_vectorized_fit_is_the_same_in_one_batch_per_jacobian():
-    """vectorized=True: the same fit, with one simulation per Jacobian."""
-    rng = np.random.default_rng(4)
+def _oscillator_records(seed=4):
+    rng = np.random.default_rng(seed)
     U = np.repeat(rng.uniform(-1, 1, (3, 15)), 10, axis=1)[..., None]
     truth = _known(
         damped,
@@ -277,7 +276,25 @@ def test_vectorized_fit_is_the_same_in_one_batch_per_jacobian():
         n_substeps=2,
     )
     Y = truth.simulate_from_state(U, [[0.4, -0.3], [0.0, 0.5], [-0.2, 0.0]])
-    Y = Y + 1e-3 * rng.normal(size=Y.shape)
+    return U, Y + 1e-3 * rng.normal(size=Y.shape)
+
+
+def _oscillator(rhs=damped, **kwargs):
+    return StateSpaceModel(
+        rhs,
+        {"omega": 1.7, "zeta": 0.3},
+        state_names=["x", "v"],
+        observed=["x"],
+        dt=0.1,
+        n_substeps=2,
+        n_init=10,
+        **kwargs,
+    )
+
+
+def test_vectorized_fit_is_the_same_in_one_batch_per_jacobian():
+    """vectorized=True: the same fit, with one simulation per Jacobian."""
+    U, Y = _oscillator_records()
     calls = {"n": 0}
 
     def counted(x, u, *, xp, omega, zeta):
@@ -287,16 +304,8 @@ def test_vectorized_fit_is_the_same_in_one_batch_per_jacobian():
     fits = {}
     for vectorized in (False, True):
         calls["n"] = 0
-        fits[vectorized] = StateSpaceModel(
-            counted,
-            {"omega": 1.7, "zeta": 0.3},
-            state_names=["x", "v"],
-            observed=["x"],
-            dt=0.1,
-            n_substeps=2,
-            n_init=10,
-            vectorized=vectorized,
-        ).fit_simulation(U, Y)
+        fits[vectorized] = _oscillator(counted, vectorized=vectorized)
+        fits[vectorized].fit_simulation(U, Y)
         fits[vectorized].calls_ = calls["n"]
     for name in ("omega", "zeta"):
         assert fits[True].params_[name] == pytest.approx(
@@ -348,34 +357,6 @@ def test_wrong_number_of_outputs_raises():
     )
     with pytest.raises(ValueError, match="observed"):
         model.fit_simulation(np.zeros((30, 1)), np.zeros((30, 2)))
-
-
-def _oscillator_records(seed=4):
-    rng = np.random.default_rng(seed)
-    U = np.repeat(rng.uniform(-1, 1, (3, 15)), 10, axis=1)[..., None]
-    truth = _known(
-        damped,
-        {"omega": 2.0, "zeta": 0.2},
-        state_names=["x", "v"],
-        observed=["x"],
-        dt=0.1,
-        n_substeps=2,
-    )
-    Y = truth.simulate_from_state(U, [[0.4, -0.3], [0.0, 0.5], [-0.2, 0.0]])
-    return U, Y + 1e-3 * rng.normal(size=Y.shape)
-
-
-def _oscillator(rhs=damped, **kwargs):
-    return StateSpaceModel(
-        rhs,
-        {"omega": 1.7, "zeta": 0.3},
-        state_names=["x", "v"],
-        observed=["x"],
-        dt=0.1,
-        n_substeps=2,
-        n_init=10,
-        **kwargs,
-    )
 
 
 def scalar_only(x, u, *, xp, omega, zeta):

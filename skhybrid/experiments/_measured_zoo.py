@@ -19,6 +19,7 @@ models fitted before it.
 
 import itertools
 import logging
+import re
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -100,19 +101,25 @@ def pooled_rmse(Y, preds, n_init):
     return float(np.sqrt(np.mean(errors**2)))
 
 
-def _records(U, Y, n):
+def _records(U, Y, n, origins=None):
     """About ``n`` consecutive pieces cut from the records, in proportion to length.
 
     Each record gives at least one piece; within a record the pieces have equal
-    length (the rest joins its last).
+    length (the rest joins its last). ``origins``, a list, receives each
+    piece's ``(record, start, stop)``.
     """
     pieces_U, pieces_Y = [], []
-    for u, y, k in zip(U, Y, pieces_per_record([len(u) for u in U], n), strict=True):
+    lengths = [len(u) for u in U]
+    for r, (u, y, k) in enumerate(
+        zip(U, Y, pieces_per_record(lengths, n), strict=True)
+    ):
         size = len(u) // k
         edges = [i * size for i in range(k)] + [len(u)]
         for a, b in itertools.pairwise(edges):
             pieces_U.append(u[a:b])
             pieces_Y.append(y[a:b])
+            if origins is not None:
+                origins.append((r, a, b))
     return pieces_U, pieces_Y
 
 
@@ -463,7 +470,8 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
             "through its equations); the spec's physics(U, Y, dt) returned a "
             f"{type(physics.estimator).__name__}. Set the spec's hybrids=None."
         )
-    U, Y = _records(_model_inputs(system, U), Y, system.hybrid_records)
+    origins = []
+    U, Y = _records(_model_inputs(system, U), Y, system.hybrid_records, origins)
     start_physics = clone(physics.estimator).set_params(
         params=dict(physics.estimator.params_)
     )
@@ -475,10 +483,36 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
         **settings,
     )
     _watch(model, ctx)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         model.fit_simulation(U, Y)
+    # A piece too short to train on is said in terms of the records the fit
+    # was given (the pieces are the run's own); other warnings stay quiet.
+    short = [
+        f"samples {a}-{b} of record {i}"
+        for i, a, b in (origins[k] for k in _unused_pieces(caught))
+    ]
+    if short:
+        warnings.warn(
+            f"the state-space hybrid trains on none of {', '.join(short)} of "
+            "the records it was fitted on (the estimation records at the "
+            "refit, a fold's fit pieces in the search): each holds fewer than "
+            "n_init + horizon samples. Lower the horizon or n_init, or give "
+            "longer records.",
+            UserWarning,
+            stacklevel=2,
+        )
     return TransformedInputSimulator(model, system.physics_inputs)
+
+
+def _unused_pieces(caught):
+    """The pieces a hybrid's fit said it used none of (its record indices)."""
+    found = []
+    for w in caught:
+        text = str(w.message)
+        if "uses none of" in text:
+            found += [int(m) for m in re.findall(r"record (\d+) \(", text)]
+    return found
 
 
 # -- the candidates ------------------------------------------------------------------

@@ -31,8 +31,8 @@ MAX_SPLITS = 4096
 #: A filter's memory: the samples for its slowest pole to decay to this fraction.
 MEMORY_DECAY = 1e-3
 #: The share of ``max_nfev`` each split's first refinement gets (the best split
-#: then goes on with the rest): a half. A fifth ranked the splits wrongly on two
-#: of the Wiener-Hammerstein benchmark's four folds (CV 0.290 mV against 0.279).
+#: then goes on with the rest): a half. A fifth ranked the splits wrongly on
+#: some of the Wiener-Hammerstein benchmark's folds (``benchmarks/LOG.md``).
 SHORT_SHARE = 2
 #: Largest residual of the fit: a non-finite simulated sample counts as this.
 NON_FINITE_RESIDUAL = 1e6

@@ -15,6 +15,13 @@ from skhybrid.hybrid import HybridEnsembleRegressor, StateSpaceHybridRegressor
 from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor
 from skhybrid.neural.engine import TRAINING_PARAMETERS, training_constraints
 
+# The state-space hybrids here train a few epochs to check the engine (Ctrl-C,
+# refits, phases), not the correction: where it does not beat the physics the
+# hybrid says so, which tests/hybrid checks.
+pytestmark = pytest.mark.filterwarnings(
+    "ignore::skhybrid.exceptions.UnhelpfulCorrectionWarning"
+)
+
 TRAINERS = [
     DenseRegressor,
     RNNRegressor,

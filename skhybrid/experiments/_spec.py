@@ -286,6 +286,18 @@ def _check_hybrids(hybrids):
             )
 
 
+def _not_a_class(physics):
+    """``physics``, refused where it is a class rather than a model."""
+    if isinstance(physics, type):
+        raise TypeError(
+            f"physics is the class {physics.__name__}, not a model: pass an "
+            f"unfitted instance, physics={physics.__name__}(...) with its "
+            "equations and starting parameters (see 'Model your own machine'), "
+            "or a callable physics(U, Y, dt) returning one."
+        )
+    return physics
+
+
 def _check_starts_values(physics, starts):
     """Raise unless every start names the physics' parameters, finite, in bounds."""
     params = physics.get_params(deep=False).get("params") or {}
@@ -548,14 +560,7 @@ class SystemSpec:
                 "score_from_estimation_start must be a bool; got "
                 f"score_from_estimation_start={self.score_from_estimation_start!r}."
             )
-        physics = self.physics
-        if isinstance(physics, type):
-            raise TypeError(
-                f"physics is the class {physics.__name__}, not a model: pass an "
-                f"unfitted instance, physics={physics.__name__}(...) with its "
-                "equations and starting parameters (see 'Model your own machine'), "
-                "or a callable physics(U, Y, dt) returning one."
-            )
+        physics = _not_a_class(self.physics)
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         if not is_factory and not (
             hasattr(physics, "fit") and hasattr(physics, "simulate")
@@ -850,14 +855,7 @@ class SystemSpec:
             return False
         if self.hybrids != "auto":
             return True
-        physics = self.physics
-        if isinstance(physics, type):
-            raise TypeError(
-                f"physics is the class {physics.__name__}, not a model: pass an "
-                f"unfitted instance, physics={physics.__name__}(...) with its "
-                "equations and starting parameters (see 'Model your own machine'), "
-                "or a callable physics(U, Y, dt) returning one."
-            )
+        physics = _not_a_class(self.physics)
         is_factory = callable(physics) and not hasattr(physics, "get_params")
         return is_factory or isinstance(physics, StateSpaceModel)
 

@@ -55,10 +55,11 @@ class SetRows:
 
     Attributes
     ----------
-    model : StateSpaceModel
-        The model whose equations simulate the rows.
+    run : callable
+        ``run(U, Y, params, structure, per_row) -> (outputs, states)``: the
+        free run of the model whose equations simulate the rows.
     key : str
-        :func:`simulation_key` of ``model``.
+        :func:`simulation_key` of the model, with its fixed values.
     structure : tuple
         The model's ``(n_states, observed, guess)``.
     U, Y : ndarray of shape (n_rows, n_times, n_inputs) and (n_rows, n_times, \
@@ -72,7 +73,7 @@ n_outputs)
         n_times, n_outputs)``.
     """
 
-    model: Any
+    run: Any
     key: str
     structure: tuple
     U: np.ndarray
@@ -88,9 +89,7 @@ n_outputs)
     def simulate(self):
         """This request's residuals, simulated on its own."""
         per_row = {name for name, v in self.params.items() if np.ndim(v)}
-        out, _ = self.model._simulate_records(
-            self.U, self.Y, self.params, self.structure, per_row=per_row
-        )
+        out, _ = self.run(self.U, self.Y, self.params, self.structure, per_row)
         return self.finish(out)
 
 
@@ -146,7 +145,7 @@ def _simulate_group(group):
     if len(group) == 1:
         return [_outcome(group[0].simulate)]
     try:
-        out, _ = group[0].model._simulate_records(*_merged(group))
+        out, _ = group[0].run(*_merged(group))
     except Exception:  # noqa: BLE001 - then each request on its own
         return [_outcome(request.simulate) for request in group]
     results, start = [], 0

@@ -345,7 +345,9 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         # stages fix a parameter at other values).
         shared = sorted((k, repr(v)) for k, v in params.items() if np.ndim(v) == 0)
         key = (simulation_key(self), *shared)
-        return SetRows(self, key, structure, U_all, Y_all, params, finish)
+        return SetRows(
+            self._simulate_records, key, structure, U_all, Y_all, params, finish
+        )
 
     def _batched_jacobian(self, spec):
         if getattr(self, "_records", None) is None:

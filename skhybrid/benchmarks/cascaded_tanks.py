@@ -15,14 +15,15 @@ Run it with ``skhybrid run cascaded-tanks --data DIR`` or::
     run_system(cascaded_tanks.make_spec("data/"), "tanks-run")
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
 from skhybrid.datasets import fetch_cascaded_tanks, load_cascaded_tanks
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = ["make_spec", "physics", "tanks", "tanks_output"]
 
@@ -190,19 +191,13 @@ def make_spec(data=None, *, quick=False):
     """
     d = read_files(fetch_cascaded_tanks, load_cascaded_tanks, data)
     tests = {"test": "test"}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(
             test_records, fetch_cascaded_tanks, load_cascaded_tanks, data, tests
         ),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # Level units are volts of the lower sensor; the upper tank is latent.
         # Run to convergence: the pump's inflow is affine in its voltage (u0
         # free), chosen on the validation tail.

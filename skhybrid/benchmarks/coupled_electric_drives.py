@@ -15,17 +15,17 @@ Run it with ``skhybrid run coupled-electric-drives --data DIR`` or::
     run_system(ced.make_spec("data/"), "ced-run")
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
 from skhybrid.datasets import (
     fetch_coupled_electric_drives,
     load_coupled_electric_drives,
 )
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["STARTS", "ced", "make_spec", "physics"]
 
@@ -161,17 +161,11 @@ def make_spec(data=None, *, quick=False):
     fetch, load = fetch_coupled_electric_drives, load_coupled_electric_drives
     d = read_files(fetch, load, data)
     tests = {"test_1": "test_1", "test_2": "test_2"}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train_1"]), pair(d.splits["train_2"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         physics=physics(d.dt),
         physics_starts=[{"w": w} for w in STARTS],
     )

@@ -14,12 +14,13 @@ Run it with ``skhybrid run emps --data DIR`` or::
     run_system(emps.make_spec("data/"), "emps-run")
 """
 
+import sys
 from functools import partial
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
 from skhybrid.datasets import fetch_emps, load_emps
 from skhybrid.domain import StateSpaceModel, asymmetric_friction
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = ["CONTINUATION", "emps_axis", "make_spec", "physics"]
 
@@ -162,17 +163,11 @@ def make_spec(data=None, *, quick=False):
         f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common, **_SHORT)
         for T, h, stride in ((100, (32, 32), 25), (400, (32, 32), 50))
     }
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch_emps, load_emps, data, {"test": "test"}),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The reference model of the description: asymmetric friction.
         physics=physics(d.dt),
         segments=(2000, 4000, 8000),

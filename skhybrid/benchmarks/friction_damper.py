@@ -14,14 +14,14 @@ Run it with ``skhybrid run friction-damper --data DIR`` or::
     run_system(friction_damper.make_spec("data/"), "damper-run")
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
 from skhybrid.datasets import fetch_friction_damper, load_friction_damper
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["band_friction", "band_friction_output", "make_spec", "physics"]
 
@@ -124,17 +124,11 @@ def make_spec(data=None, *, quick=False):
     if quick:  # the three 7169-sample tests at 1 Hz
         train = [k for k in train if k.startswith("train_1Hz")]
     tests = {k[len("test_") :]: k for k in d.splits if k.startswith("test_")}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits[k]) for k in train],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The data sheet: dry friction of a band behind a backlash (Dahl).
         physics=physics(max_nfev=40),
     )

@@ -16,14 +16,15 @@ Run it with ``skhybrid run silverbox --data DIR`` or::
     run_system(silverbox.make_spec("data/"), "silverbox-run")
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, read_files, test_records
 from skhybrid.datasets import fetch_silverbox, load_silverbox
 from skhybrid.domain import StateSpaceModel, band_limited_inputs
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = [
     "INTERSAMPLE",
@@ -209,17 +210,11 @@ def make_spec(data=None, *, quick=False):
         )
     }
     tests = {name: name for name in TESTS}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[(train.u[:n], train.y[:n])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch_silverbox, load_silverbox, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         physics=physics_from_records,
         physics_inputs=band_limited_inputs,
         segments=(512,),

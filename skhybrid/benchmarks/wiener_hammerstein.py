@@ -13,12 +13,12 @@ Run it with ``skhybrid run wiener-hammerstein --data DIR`` or::
     run_system(wiener_hammerstein.make_spec("data/"), "wh-run")
 """
 
+import sys
 from functools import partial
 
-from skhybrid.benchmarks._common import read_files, test_records
+from skhybrid.benchmarks._common import measured_spec, read_files, test_records
 from skhybrid.datasets import fetch_wiener_hammerstein, load_wiener_hammerstein
 from skhybrid.domain import WienerHammersteinModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["make_spec"]
 
@@ -68,20 +68,13 @@ def make_spec(data=None, *, quick=False):
     d = read_files(fetch, load, data)
     train = d.splits["train"]
     n = 20000 if quick else len(train.u)
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[(train.u[:n], train.y[:n])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, {"test": "test"}),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The data sheet: two linear filters around a static nonlinearity,
         # nominal order 6.
         physics=WienerHammersteinModel(order=6),
         segments=(None,),
-        hybrids=None,
     )

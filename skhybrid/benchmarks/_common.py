@@ -11,7 +11,14 @@ title before any record is loaded); :func:`measured_spec` fills the
 
 from skhybrid.experiments import SystemSpec
 
-__all__ = ["FACTS", "measured_spec", "pair", "read_files", "test_records"]
+__all__ = [
+    "FACTS",
+    "fill_make_spec_docstring",
+    "measured_spec",
+    "pair",
+    "read_files",
+    "test_records",
+]
 
 #: The module constants that hold a measured benchmark's facts, and the
 #: :class:`~skhybrid.experiments.SystemSpec` argument each fills.
@@ -23,6 +30,39 @@ FACTS = {
     "PUBLISHED": "published",
     "NOTES": "notes",
 }
+
+
+#: The parameters and return of every measured benchmark's ``make_spec``, filled
+#: into its docstring's ``%(make_spec_parameters)s`` line (each docstring says
+#: what its ``quick`` shortens).
+MAKE_SPEC_PARAMETERS = """\
+    Parameters
+    ----------
+    data : str or Path or None, default=None
+        Folder holding the benchmark's files; None fetches them once.
+    quick : bool, default=False
+        The quick form, as the summary above says.
+
+    Returns
+    -------
+    spec : SystemSpec
+        The estimation records loaded; the test records load when called."""
+
+
+def fill_make_spec_docstring(doc):
+    """``doc`` with its ``%(make_spec_parameters)s`` line written out.
+
+    Parameters
+    ----------
+    doc : str
+        A ``make_spec`` docstring.
+
+    Returns
+    -------
+    doc : str
+        The docstring with the shared Parameters and Returns sections.
+    """
+    return doc.replace("    %(make_spec_parameters)s", MAKE_SPEC_PARAMETERS)
 
 
 def measured_spec(module, files, **arguments):

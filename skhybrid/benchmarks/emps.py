@@ -7,17 +7,19 @@ motor of known constant against Coulomb and viscous friction with other
 coefficients in each direction. The candidates depart from the default family
 (see :data:`NOTES`).
 
-Run it with ``skhybrid run emps --data DIR`` or::
-
-    from skhybrid.benchmarks import emps
-    from skhybrid.experiments import run_system
-    run_system(emps.make_spec("data/"), "emps-run")
+Run it with ``skhybrid run emps --data DIR``.
 """
 
 import sys
 from functools import partial
 
-from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_emps, load_emps
 from skhybrid.domain import StateSpaceModel, asymmetric_friction
 from skhybrid.experiments import hybrid_settings
@@ -139,17 +141,9 @@ def physics(dt, *, n_init=20, max_nfev=300, continuation=CONTINUATION):
 def make_spec(data=None, *, quick=False):
     """The EMPS' :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Unused.
+    ``quick`` changes nothing.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation record loaded; the test record loads when called.
+    %(make_spec_parameters)s
     """
     d = read_files(fetch_emps, load_emps, data)
     # The network corrects the velocity's update from the velocity and the
@@ -173,3 +167,6 @@ def make_spec(data=None, *, quick=False):
         segments=(2000, 4000, 8000),
         hybrids=hybrids,
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

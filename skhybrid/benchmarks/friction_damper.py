@@ -7,11 +7,7 @@ official split or protocol: ``n_init = 50`` (49 ms) and no published figure,
 so the linear ARX is the linear reference. The physics: a band brake's dry
 friction (Dahl) behind a backlash, the default candidate family.
 
-Run it with ``skhybrid run friction-damper --data DIR`` or::
-
-    from skhybrid.benchmarks import friction_damper
-    from skhybrid.experiments import run_system
-    run_system(friction_damper.make_spec("data/"), "damper-run")
+Run it with ``skhybrid run friction-damper --data DIR``.
 """
 
 import sys
@@ -19,7 +15,13 @@ from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import measured_spec, pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_friction_damper, load_friction_damper
 from skhybrid.domain import StateSpaceModel
 
@@ -106,17 +108,9 @@ def physics(*, max_nfev=40):
 def make_spec(data=None, *, quick=False):
     """The friction damper's :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the dataset's files; None fetches them once.
-    quick : bool, default=False
-        Estimate on the three 1 Hz harmonic tests only.
+    ``quick`` estimates on the three 1 Hz harmonic tests only.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation records loaded; the test records load when called.
+    %(make_spec_parameters)s
     """
     fetch, load = fetch_friction_damper, load_friction_damper
     d = read_files(fetch, load, data)
@@ -132,3 +126,6 @@ def make_spec(data=None, *, quick=False):
         # The data sheet: dry friction of a band behind a backlash (Dahl).
         physics=physics(max_nfev=40),
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -3,7 +3,10 @@
 Every module holds everything that makes its system special, in the form a user
 writes for their own machine: where its records come from, its physics, its
 departures from the default candidate family with the reason (``NOTES``), and
-the published figures with their protocol and source (``PUBLISHED``).
+the published figures with their protocol and source (``PUBLISHED``). A
+measured benchmark's facts known before its files are read (``NAME``,
+``TITLE``, ``UNIT``, ``SCALE``, ``PUBLISHED``, ``NOTES``, ``HYBRIDS``) are
+constants of its module, their one owner; its spec reads them there.
 
 The paper's simulated systems (section 6):
 

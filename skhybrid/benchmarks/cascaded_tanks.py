@@ -8,21 +8,24 @@ the pump's inflow affine in its voltage. The candidates depart from the default
 family (see :data:`NOTES`), and the test records are also scored under the
 original protocol of the published grey-box figures.
 
-Run it with ``skhybrid run cascaded-tanks --data DIR`` or::
-
-    from skhybrid.benchmarks import cascaded_tanks
-    from skhybrid.experiments import run_system
-    run_system(cascaded_tanks.make_spec("data/"), "tanks-run")
+Run it with ``skhybrid run cascaded-tanks --data DIR``.
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_cascaded_tanks, load_cascaded_tanks
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = ["make_spec", "physics", "tanks", "tanks_output"]
 
@@ -176,33 +179,19 @@ def physics(dt, *, max_nfev=400):
 def make_spec(data=None, *, quick=False):
     """The cascaded tanks' :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Unused (the records are short already).
+    ``quick`` changes nothing: the records are short already.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation record loaded; the test record loads when called.
+    %(make_spec_parameters)s
     """
     d = read_files(fetch_cascaded_tanks, load_cascaded_tanks, data)
     tests = {"test": "test"}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(
             test_records, fetch_cascaded_tanks, load_cascaded_tanks, data, tests
         ),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # Level units are volts of the lower sensor; the upper tank is latent.
         # Run to convergence: the pump's inflow is affine in its voltage (u0
         # free), chosen on the validation tail.
@@ -214,3 +203,6 @@ def make_spec(data=None, *, quick=False):
         # estimation record's start (the published grey-box figures' protocol).
         score_from_estimation_start=True,
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

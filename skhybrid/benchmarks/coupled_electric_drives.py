@@ -8,24 +8,26 @@ pulse counter measures the pulley's speed without its sign behind a low-pass
 filter. The default candidate family, the physics started from several resonance
 frequencies.
 
-Run it with ``skhybrid run coupled-electric-drives --data DIR`` or::
-
-    from skhybrid.benchmarks import coupled_electric_drives as ced
-    from skhybrid.experiments import run_system
-    run_system(ced.make_spec("data/"), "ced-run")
+Run it with ``skhybrid run coupled-electric-drives --data DIR``.
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import (
     fetch_coupled_electric_drives,
     load_coupled_electric_drives,
 )
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["STARTS", "ced", "make_spec", "physics"]
 
@@ -146,32 +148,21 @@ def physics(dt, *, w=15.0, max_nfev=60):
 def make_spec(data=None, *, quick=False):
     """The coupled electric drives' :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Unused.
+    ``quick`` changes nothing.
 
-    Returns
-    -------
-    spec : SystemSpec
-        Both estimation records loaded; the test records load when called.
+    %(make_spec_parameters)s
     """
     fetch, load = fetch_coupled_electric_drives, load_coupled_electric_drives
     d = read_files(fetch, load, data)
     tests = {"test_1": "test_1", "test_2": "test_2"}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train_1"]), pair(d.splits["train_2"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         physics=physics(d.dt),
         physics_starts=[{"w": w} for w in STARTS],
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -7,19 +7,22 @@ motor of known constant against Coulomb and viscous friction with other
 coefficients in each direction. The candidates depart from the default family
 (see :data:`NOTES`).
 
-Run it with ``skhybrid run emps --data DIR`` or::
-
-    from skhybrid.benchmarks import emps
-    from skhybrid.experiments import run_system
-    run_system(emps.make_spec("data/"), "emps-run")
+Run it with ``skhybrid run emps --data DIR``.
 """
 
+import sys
 from functools import partial
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_emps, load_emps
 from skhybrid.domain import StateSpaceModel, asymmetric_friction
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = ["CONTINUATION", "emps_axis", "make_spec", "physics"]
 
@@ -138,17 +141,9 @@ def physics(dt, *, n_init=20, max_nfev=300, continuation=CONTINUATION):
 def make_spec(data=None, *, quick=False):
     """The EMPS' :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Unused.
+    ``quick`` changes nothing.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation record loaded; the test record loads when called.
+    %(make_spec_parameters)s
     """
     d = read_files(fetch_emps, load_emps, data)
     # The network corrects the velocity's update from the velocity and the
@@ -162,19 +157,16 @@ def make_spec(data=None, *, quick=False):
         f"T={T}, {h}": hybrid_settings(T, h, stride=stride, **common, **_SHORT)
         for T, h, stride in ((100, (32, 32), 25), (400, (32, 32), 50))
     }
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits["train"])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch_emps, load_emps, data, {"test": "test"}),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The reference model of the description: asymmetric friction.
         physics=physics(d.dt),
         segments=(2000, 4000, 8000),
         hybrids=hybrids,
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -7,21 +7,23 @@ official split or protocol: ``n_init = 50`` (49 ms) and no published figure,
 so the linear ARX is the linear reference. The physics: a band brake's dry
 friction (Dahl) behind a backlash, the default candidate family.
 
-Run it with ``skhybrid run friction-damper --data DIR`` or::
-
-    from skhybrid.benchmarks import friction_damper
-    from skhybrid.experiments import run_system
-    run_system(friction_damper.make_spec("data/"), "damper-run")
+Run it with ``skhybrid run friction-damper --data DIR``.
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import pair, read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    pair,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_friction_damper, load_friction_damper
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["band_friction", "band_friction_output", "make_spec", "physics"]
 
@@ -106,17 +108,9 @@ def physics(*, max_nfev=40):
 def make_spec(data=None, *, quick=False):
     """The friction damper's :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the dataset's files; None fetches them once.
-    quick : bool, default=False
-        Estimate on the three 1 Hz harmonic tests only.
+    ``quick`` estimates on the three 1 Hz harmonic tests only.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation records loaded; the test records load when called.
+    %(make_spec_parameters)s
     """
     fetch, load = fetch_friction_damper, load_friction_damper
     d = read_files(fetch, load, data)
@@ -124,17 +118,14 @@ def make_spec(data=None, *, quick=False):
     if quick:  # the three 7169-sample tests at 1 Hz
         train = [k for k in train if k.startswith("train_1Hz")]
     tests = {k[len("test_") :]: k for k in d.splits if k.startswith("test_")}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[pair(d.splits[k]) for k in train],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The data sheet: dry friction of a band behind a backlash (Dahl).
         physics=physics(max_nfev=40),
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -9,21 +9,23 @@ started from a one-step regression on finite differences, its input read
 between samples as a band-limited signal. The candidates depart from the default
 family (see :data:`NOTES`).
 
-Run it with ``skhybrid run silverbox --data DIR`` or::
-
-    from skhybrid.benchmarks import silverbox
-    from skhybrid.experiments import run_system
-    run_system(silverbox.make_spec("data/"), "silverbox-run")
+Run it with ``skhybrid run silverbox --data DIR``.
 """
 
+import sys
 from functools import partial
 
 import numpy as np
 
-from skhybrid.benchmarks._common import read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_silverbox, load_silverbox
 from skhybrid.domain import StateSpaceModel, band_limited_inputs
-from skhybrid.experiments import SystemSpec, hybrid_settings
+from skhybrid.experiments import hybrid_settings
 
 __all__ = [
     "INTERSAMPLE",
@@ -182,17 +184,9 @@ def physics_from_records(U, Y, dt):
 def make_spec(data=None, *, quick=False):
     """The Silverbox's :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Estimate on the record's first 16,384 samples only.
+    ``quick`` estimates on the record's first 16,384 samples only.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation record loaded; the test records load when called.
+    %(make_spec_parameters)s
     """
     d = read_files(fetch_silverbox, load_silverbox, data)
     train = d.splits["train"]
@@ -209,20 +203,17 @@ def make_spec(data=None, *, quick=False):
         )
     }
     tests = {name: name for name in TESTS}
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[(train.u[:n], train.y[:n])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch_silverbox, load_silverbox, data, tests),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         physics=physics_from_records,
         physics_inputs=band_limited_inputs,
         segments=(512,),
         hybrids=hybrids,
         hybrid_records=6,
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -6,19 +6,20 @@ is the data sheet's structure: two linear filters around a static nonlinearity,
 a :class:`~skhybrid.domain.WienerHammersteinModel`. The candidates depart from
 the default family (see :data:`NOTES`).
 
-Run it with ``skhybrid run wiener-hammerstein --data DIR`` or::
-
-    from skhybrid.benchmarks import wiener_hammerstein
-    from skhybrid.experiments import run_system
-    run_system(wiener_hammerstein.make_spec("data/"), "wh-run")
+Run it with ``skhybrid run wiener-hammerstein --data DIR``.
 """
 
+import sys
 from functools import partial
 
-from skhybrid.benchmarks._common import read_files, test_records
+from skhybrid.benchmarks._common import (
+    fill_make_spec_docstring,
+    measured_spec,
+    read_files,
+    test_records,
+)
 from skhybrid.datasets import fetch_wiener_hammerstein, load_wiener_hammerstein
 from skhybrid.domain import WienerHammersteinModel
-from skhybrid.experiments import SystemSpec
 
 __all__ = ["make_spec"]
 
@@ -52,36 +53,24 @@ NOTES = (
 def make_spec(data=None, *, quick=False):
     """The Wiener-Hammerstein benchmark's :class:`~skhybrid.experiments.SystemSpec`.
 
-    Parameters
-    ----------
-    data : str or Path or None, default=None
-        Folder holding the benchmark's files; None fetches them once.
-    quick : bool, default=False
-        Estimate on the record's first 20,000 samples only.
+    ``quick`` estimates on the record's first 20,000 samples only.
 
-    Returns
-    -------
-    spec : SystemSpec
-        The estimation record loaded; the test record loads when called.
+    %(make_spec_parameters)s
     """
     fetch, load = fetch_wiener_hammerstein, load_wiener_hammerstein
     d = read_files(fetch, load, data)
     train = d.splits["train"]
     n = 20000 if quick else len(train.u)
-    return SystemSpec(
-        NAME,
+    return measured_spec(
+        sys.modules[__name__],
+        d,
         records=[(train.u[:n], train.y[:n])],
-        n_init=d.n_init,
-        dt=d.dt,
         tests=partial(test_records, fetch, load, data, {"test": "test"}),
-        title=TITLE,
-        unit=UNIT,
-        scale=SCALE,
-        published=PUBLISHED,
-        notes=NOTES,
         # The data sheet: two linear filters around a static nonlinearity,
         # nominal order 6.
         physics=WienerHammersteinModel(order=6),
         segments=(None,),
-        hybrids=None,
     )
+
+
+make_spec.__doc__ = fill_make_spec_docstring(make_spec.__doc__)

@@ -20,6 +20,7 @@ from skhybrid.simulation import (
     pack_trajectories,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
 from skhybrid.utils._validation import validate_records
@@ -680,15 +681,7 @@ or list of 2-D arrays
             ``inputs``; each record's first ``n_init`` are the measured ones.
         """
         check_is_fitted(self)
-        if not isinstance(init, str) or init not in ("measured", "least_squares"):
-            raise ValueError(
-                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
-            )
-        if n_samples is not None or return_std:
-            raise ValueError(
-                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
-                f"model; this {type(self).__name__} has none."
-            )
+        check_simulate_options(self, init, n_samples, return_std)
         U_list, Y_list, form = check_trajectories(inputs, initial)
         if U_list[0].shape[1] != self.n_features_in_:
             raise ValueError(

@@ -38,6 +38,7 @@ from skhybrid.simulation import (
     stack_trajectories,
 )
 from skhybrid.utils._array_api import get_namespace, is_torch
+from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
     Interval,
@@ -797,26 +798,16 @@ n_init, n_outputs) or list of 2-D arrays
             ``return_std=True`` the tuple ``(mean, std)``.
         """
         structure = self._check_fitted_structure()
-        if not isinstance(init, str) or init not in ("measured", "least_squares"):
-            raise ValueError(
-                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
-            )
-        stochastic = n_samples is not None or return_std
-        if n_samples is not None:
-            if isinstance(n_samples, bool) or not isinstance(
-                n_samples, (int, np.integer)
-            ):
-                raise TypeError(f"n_samples must be an int or None; got {n_samples!r}.")
-            if n_samples < 1:
-                raise ValueError(f"n_samples must be >= 1; got n_samples={n_samples}.")
         noise = getattr(self, "noise_model_", None)
-        if stochastic and noise is None:
-            raise ValueError(
-                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
-                f"model; this {type(self).__name__} has none. Pass noise_model (for "
-                "example skhybrid.hybrid.GaussianNoise()) and fit with "
-                "fit_simulation, which fits it to the simulation residuals."
-            )
+        stochastic = check_simulate_options(
+            self,
+            init,
+            n_samples,
+            return_std,
+            noise_model=noise,
+            remedy="pass noise_model (for example skhybrid.hybrid.GaussianNoise()) "
+            "and fit with fit_simulation, which fits it to the simulation residuals",
+        )
         U_list, Y_list, form = check_trajectories(
             inputs,
             initial,

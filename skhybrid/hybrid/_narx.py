@@ -8,18 +8,13 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.hybrid._record_checks import (
-    _INITS,
-    _check_columns,
-    _check_lengths,
-    _check_simulate_options,
-)
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import check_trajectories, simulate
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
-from skhybrid.utils._validation import validate_records
+from skhybrid.utils._validation import check_record_lengths, validate_records
 
 __all__ = ["NARXSimulator"]
 
@@ -122,7 +117,7 @@ of them
             The fitted model.
         """
         U, Y = validate_records(self, X, y)
-        _check_lengths(
+        check_record_lengths(
             self,
             Y,
             self.n_steps + 1,
@@ -183,7 +178,7 @@ n_init, n_outputs) or list of 2-D arrays
             of ``inputs``.
         """
         check_is_fitted(self)
-        _check_simulate_options(self, init, n_samples, return_std, _INITS)
+        check_simulate_options(self, init, n_samples, return_std)
         U_list, Y0_list, _ = check_trajectories(inputs, initial)
-        _check_columns(self, U_list[0].shape[1], Y0_list[0].shape[1])
+        check_fitted_widths(self, U_list[0].shape[1], Y0_list[0].shape[1])
         return simulate(self.model_, inputs, initial, init=init)

@@ -9,20 +9,20 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.hybrid._record_checks import (
-    _check_columns,
-    _check_lengths,
-    _check_simulate_options,
-)
 from skhybrid.simulation import (
     check_trajectories,
     pack_trajectories,
     stack_trajectories,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin, transactional
-from skhybrid.utils._validation import as_columns, validate_records
+from skhybrid.utils._validation import (
+    as_columns,
+    check_record_lengths,
+    validate_records,
+)
 
 __all__ = ["PhysicsCorrection"]
 
@@ -202,7 +202,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
         """
         self._check_physics()
         U, Y = self._validate(X, y)
-        _check_lengths(
+        check_record_lengths(
             self,
             Y,
             self.n_init + 1,
@@ -285,7 +285,7 @@ list of them
         check_is_fitted(self)
         u = as_columns(inputs, "inputs")
         p = np.ravel(as_columns(physics_outputs, "physics_outputs"))
-        _check_columns(self, u.shape[1], 1)
+        check_fitted_widths(self, u.shape[1], 1)
         if len(p) != len(u):
             raise ValueError(
                 f"physics_outputs holds {len(p)} samples; inputs holds {len(u)}."
@@ -334,8 +334,10 @@ or list of 2-D arrays
         """
         check_is_fitted(self)
         U_list, Y0_list, form = check_trajectories(inputs, initial)
-        _check_simulate_options(self, init, n_samples, return_std, ("measured",))
-        _check_columns(self, U_list[0].shape[1], Y0_list[0].shape[1])
+        check_simulate_options(
+            self, init, n_samples, return_std, supported=("measured",)
+        )
+        check_fitted_widths(self, U_list[0].shape[1], Y0_list[0].shape[1])
         runs = []
         for u, y0 in zip(U_list, Y0_list, strict=True):
             y = self.correct(u, self._physics_run(u, y0))

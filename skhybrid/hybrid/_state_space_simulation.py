@@ -17,6 +17,7 @@ from skhybrid.simulation import (
     pack_trajectories,
     stack_trajectories,
 )
+from skhybrid.utils._simulate_checks import check_simulate_options
 
 
 class _SimulationMixin:
@@ -73,16 +74,13 @@ n_init, n_outputs) or list of 2-D arrays
         """
 
         check_is_fitted(self)
-        if not isinstance(init, str) or init not in ("measured", "least_squares"):
-            raise ValueError(
-                f"init must be one of ('measured', 'least_squares'); got init={init!r}."
-            )
-        if n_samples is not None or return_std:
-            raise ValueError(
-                f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
-                f"model; {type(self).__name__} has none: it simulates the "
-                "deterministic path only."
-            )
+        check_simulate_options(
+            self,
+            init,
+            n_samples,
+            return_std,
+            remedy="it simulates the deterministic path only",
+        )
         k = self._k
         U_list, Y_list, form = check_trajectories(
             inputs, initial, min_init=k, window_name=f"the encoder (n_init={k})"

@@ -4,13 +4,13 @@ import numpy as np
 from sklearn.base import BaseEstimator, clone
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.hybrid._record_checks import _check_simulate_options
 from skhybrid.simulation import (
     check_trajectories,
     pack_trajectories,
     stack_trajectories,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
+from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import HasMethods, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
 from skhybrid.utils._validation import validate_records
@@ -211,7 +211,9 @@ of them
         """
         self._validate_params()
         U_list, Y0_list, form = check_trajectories(inputs, initial)
-        _check_simulate_options(self, init, n_samples, return_std, ("measured",))
+        check_simulate_options(
+            self, init, n_samples, return_std, supported=("measured",)
+        )
         expected = self.__dict__.get("n_features_in_")  # set by fit only
         n_inputs = U_list[0].shape[1]
         if expected is not None and n_inputs != expected:

@@ -7,10 +7,9 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation._initial import fit_initial_states
+from skhybrid.utils._simulate_checks import check_simulate_options
 
 __all__ = ["SimulatorMixin", "check_trajectories", "pack_trajectories", "simulate"]
-
-INITS = ("measured", "least_squares")
 
 #: Sample paths drawn for ``return_std=True`` when ``n_samples`` is not given.
 DEFAULT_STD_SAMPLES = 100
@@ -474,8 +473,14 @@ n_states) or list of (n_init_i, n_states) arrays
         list). With ``return_std=True`` the tuple ``(mean, std)``.
     """
     check_is_fitted(estimator)
-    if not isinstance(init, str) or init not in INITS:
-        raise ValueError(f"init must be one of {INITS}; got init={init!r}.")
+    stochastic = check_simulate_options(
+        estimator,
+        init,
+        n_samples,
+        return_std,
+        noise_model=noise_model,
+        remedy="fit a hybrid with noise_model='gaussian' or 'ar'",
+    )
     U_list, Y0_list, form = check_trajectories(inputs, initial)
     n_inputs, n_states = U_list[0].shape[1], Y0_list[0].shape[1]
     layout = _layout(estimator, n_states, n_inputs)
@@ -488,18 +493,6 @@ n_states) or list of (n_init_i, n_states) arrays
                 f"of n_steps={layout.n_steps}, so at least {layout.n_steps} measured "
                 "steps must start the simulation."
             )
-    if n_samples is not None:
-        if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)):
-            raise TypeError(f"n_samples must be an int or None; got {n_samples!r}.")
-        if n_samples < 1:
-            raise ValueError(f"n_samples must be >= 1; got n_samples={n_samples}.")
-    stochastic = n_samples is not None or return_std
-    if stochastic and noise_model is None:
-        raise ValueError(
-            f"n_samples={n_samples!r} and return_std={return_std!r} need a noise "
-            f"model; {type(estimator).__name__} has none (fit a hybrid with "
-            "noise_model='gaussian' or 'ar')."
-        )
 
     n_traj, n_max = len(U_list), int(lengths.max())
     U = np.zeros((n_traj, n_max, n_inputs))

@@ -4,7 +4,12 @@ import numpy as np
 
 from skhybrid.utils._sklearn_compat import validate_data
 
-__all__ = ["as_columns", "first_not_finite", "validate_records"]
+__all__ = [
+    "as_columns",
+    "check_record_lengths",
+    "first_not_finite",
+    "validate_records",
+]
 
 
 def as_columns(values, name, *, columns="n_columns"):
@@ -134,3 +139,30 @@ def validate_records(estimator, X, y):
             f"every record of y must hold the same number of outputs; got {widths}."
         )
     return U, Y
+
+
+def check_record_lengths(estimator, Y, shortest, why):
+    """Raise a ValueError where a record has fewer than ``shortest`` samples.
+
+    Parameters
+    ----------
+    estimator : estimator
+        The model being fitted; its class name goes into the message.
+    Y : list of ndarray
+        The records' outputs, as :func:`validate_records` returns them.
+    shortest : int
+        The fewest samples a record may hold.
+    why : str
+        What the samples are needed for, for the message.
+
+    Raises
+    ------
+    ValueError
+        If a record holds fewer than ``shortest`` samples.
+    """
+    for i, y in enumerate(Y):
+        if len(y) < shortest:
+            raise ValueError(
+                f"{type(estimator).__name__} needs records of at least {shortest} "
+                f"samples ({why}); record {i} has {len(y)} sample(s)."
+            )

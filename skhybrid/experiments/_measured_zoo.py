@@ -19,7 +19,6 @@ models fitted before it.
 
 import itertools
 import logging
-import re
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -459,6 +458,11 @@ def _fit_correction(make_regressor, n, U, Y, ctx, deps, start):
     return _watch(model, ctx).fit(list(U), list(Y))
 
 
+def _always(ctx):
+    """Whether the state-space hybrid's folds train in lockstep: always."""
+    return True
+
+
 def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
     """A :class:`StateSpaceHybridRegressor` on pieces cut from the records."""
     from skhybrid.hybrid import StateSpaceHybridRegressor
@@ -487,10 +491,13 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
         warnings.simplefilter("always")
         model.fit_simulation(U, Y)
     # A piece too short to train on is said in terms of the records the fit
-    # was given (the pieces are the run's own); other warnings stay quiet.
+    # was given (the pieces are the run's own); other warnings stay quiet. The
+    # model says which (the warnings caught may be other folds' where folds
+    # train side by side in threads).
+    del caught
     short = [
         f"samples {a}-{b} of record {i}"
-        for i, a, b in (origins[k] for k in _unused_pieces(caught))
+        for i, a, b in (origins[k] for k in model.unused_records_)
     ]
     if short:
         warnings.warn(
@@ -503,16 +510,6 @@ def _fit_state_space_hybrid(settings, U, Y, ctx, deps, start):
             stacklevel=2,
         )
     return TransformedInputSimulator(model, system.physics_inputs)
-
-
-def _unused_pieces(caught):
-    """The pieces a hybrid's fit said it used none of (its record indices)."""
-    found = []
-    for w in caught:
-        text = str(w.message)
-        if "uses none of" in text:
-            found += [int(m) for m in re.findall(r"record (\d+) \(", text)]
-    return found
 
 
 # -- the candidates ------------------------------------------------------------------
@@ -675,6 +672,7 @@ def zoo(system, quick=False):
             _hybrids,
             requires=("physics",),
             epochs=_hybrid_epochs,
+            lockstep=_always,
         )
     # Every fit reports its start and end to the run's progress.
     models = {

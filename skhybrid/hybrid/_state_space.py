@@ -35,6 +35,7 @@ from skhybrid.neural.engine import (
     check_device,
     check_sequence_objective,
     record_training,
+    seeded,
     train_module,
     training_constraints,
     training_parameters_doc,
@@ -286,6 +287,10 @@ class StateSpaceHybridRegressor(
     interrupted_ : bool
         Whether a Ctrl-C cut the training short (the best epoch so far was
         kept, and a ``UserWarning`` said so).
+    unused_records_ : list of int
+        The records :meth:`fit_simulation` trained on none of (too short for
+        a window and its horizon; a ``UserWarning`` named them); empty after
+        :meth:`fit`.
     n_features_in_ : int
         Columns of a row of ``X`` (``n_steps`` steps).
     n_outputs_ : int
@@ -324,6 +329,12 @@ class StateSpaceHybridRegressor(
     >>> model.simulate(u[0], y[0, :2]).shape
     (100, 1)
     """
+
+    #: A search fits a candidate's folds side by side in threads of one process:
+    #: their networks' steps are computed as one batched call
+    #: (:mod:`skhybrid.neural._lockstep`), their physics' free runs as one
+    #: batch (:class:`~skhybrid.model_selection.SimulationSearchCV`).
+    fits_in_lockstep = True
 
     _parameter_constraints = {
         "physics": [StateSpaceModel],
@@ -507,8 +518,7 @@ class StateSpaceHybridRegressor(
             * self.step_scale_
             * self._corr_mask,
         }
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(self._seeds[0])
+        with seeded(self._seeds[0]):
             n_aug = self.n_augmented_states
             encoder = mlp(n_enc, n_states + n_aug, self.encoder_hidden_layer_sizes)
             correction = mlp(
@@ -736,6 +746,7 @@ class StateSpaceHybridRegressor(
         self._fit_windows(
             physics, Yseq, Useq, valid, self.n_steps, n_outputs, width - n_outputs
         )
+        self.unused_records_ = []
         self.n_features_in_ = n_features
         return self
 

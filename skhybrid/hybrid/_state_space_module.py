@@ -129,6 +129,45 @@ class StateSpaceHybridModule(nn.Module):
         for name, value in scales.items():
             self.register_buffer(name, torch.as_tensor(value, dtype=torch.float64))
 
+    def lockstep_signature(self):
+        """What besides its tensors two modules must share to be run as one.
+
+        The settings the forward pass reads, and the physics' equations and
+        fixed parameter values (see :mod:`skhybrid.neural._lockstep`).
+        """
+        physics = self.physics
+        # Its settings but the starting values (each fold starts from its own).
+        settings = sorted(
+            (name, repr(value))
+            for name, value in physics.get_params(deep=False).items()
+            if name != "params"
+        )
+        fixed = sorted(
+            (name, repr(value))
+            for name, value in physics.params_.items()
+            if name not in physics.free_params_
+        )
+        return repr(
+            (
+                type(physics),
+                settings,
+                sorted(physics.params_),
+                fixed,
+                self.physics_only,
+                self.n_init,
+                self.n_outputs,
+                self.n_inputs,
+                self.observed,
+                self.corr_idx,
+                self.continuous_correction,
+                self.encoder_absolute,
+                self.has_prior,
+                self.dt,
+                self.n_augmented,
+                self.augmented_scale,
+            )
+        )
+
     # -- the model -----------------------------------------------------------------
     @property
     def n_physics_states(self):
@@ -301,6 +340,10 @@ class EncoderModule(nn.Module):
     def __init__(self, hybrid):
         super().__init__()
         self.hybrid = hybrid
+
+    def lockstep_signature(self):
+        """The hybrid's (see :meth:`StateSpaceHybridModule.lockstep_signature`)."""
+        return self.hybrid.lockstep_signature()
 
     def forward(self, Z):
         h = self.hybrid

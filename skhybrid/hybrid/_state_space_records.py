@@ -91,6 +91,7 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             if cut < len(y):
                 # The whole tail, simulated from its first n_init samples.
                 valid.append((y[cut:], u[cut:]))
+        self.unused_records_ = [i for i, _, _ in unused]
         if not train:
             raise ValueError(
                 f"no record holds n_init + horizon = {k} + {T} = {L} samples in its "

@@ -52,6 +52,10 @@ class BatchIterator:
         batch_size)`` batches instead, each of at least ``batch_size`` rows
         (the batches of the sequence models, whose samples are long simulated
         sub-sequences: a rounded-up batch count would add a pass of work).
+    generator : torch.Generator or None, default=None
+        The (CPU) random generator of the shuffles; None draws from torch's
+        global one. A net's own generator keeps its batches the same when
+        other fits train beside it in threads of the same process.
     """
 
     def __init__(
@@ -62,6 +66,7 @@ class BatchIterator:
         contiguous=False,
         segment_length=None,
         at_least_batch_size=False,
+        generator=None,
     ):
         self.dataset = dataset
         self.batch_size = batch_size
@@ -69,6 +74,12 @@ class BatchIterator:
         self.contiguous = contiguous
         self.segment_length = segment_length
         self.at_least_batch_size = at_least_batch_size
+        self.generator = generator
+
+    def _randperm(self, n, device=None):
+        """A permutation of ``n`` drawn from the iterator's generator."""
+        perm = torch.randperm(n, generator=self.generator)
+        return perm if device is None else perm.to(device)
 
     def _segmented(self, n):
         m = self.segment_length
@@ -96,13 +107,13 @@ class BatchIterator:
             return
         bounds = self._bounds(n, self.contiguous)
         if self.shuffle and not self.contiguous:
-            perm = torch.randperm(n, device=X.device)
+            perm = self._randperm(n, X.device)
             for start, stop in bounds:
                 idx = perm[start:stop]
                 yield X[idx], y[idx]
             return
         if self.shuffle:
-            order = torch.randperm(len(bounds)).tolist()
+            order = self._randperm(len(bounds)).tolist()
             bounds = [bounds[i] for i in order]
         for start, stop in bounds:
             yield X[start:stop], y[start:stop]
@@ -113,13 +124,17 @@ class BatchIterator:
         per_batch = max(1, self.batch_size // m)
         n_segments = n // m
         spare = n - n_segments * m
-        offset = int(torch.randint(spare + 1, ())) if spare else 0
+        offset = (
+            int(torch.randint(spare + 1, (), generator=self.generator))
+            if spare
+            else 0
+        )
         need = len(bounds) * per_batch
         order = torch.cat(
-            [torch.randperm(n_segments) for _ in range(-(-need // n_segments))]
+            [self._randperm(n_segments) for _ in range(-(-need // n_segments))]
         )[:need]
         rows = torch.arange(m)
-        perm = torch.randperm(n, device=X.device)
+        perm = self._randperm(n, X.device)
         for i, (start, stop) in enumerate(bounds):
             starts = offset + order[i * per_batch : (i + 1) * per_batch] * m
             segments = (starts[:, None] + rows[None, :]).reshape(-1).to(X.device)

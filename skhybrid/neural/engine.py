@@ -12,6 +12,8 @@ once here (:data:`TRAINING_PARAMETERS`: default, constraint and documentation)
 and shared by every estimator that trains a network.
 """
 
+import contextlib
+import threading
 import warnings
 from dataclasses import dataclass
 from numbers import Integral, Real
@@ -22,18 +24,21 @@ import torch
 from sklearn.utils import check_random_state
 from skorch import NeuralNetRegressor
 from skorch.callbacks import LRScheduler
-from skorch.dataset import Dataset
+from skorch.dataset import Dataset, unpack_data
 from skorch.helper import predefined_split
+from skorch.utils import to_tensor
 from torch.optim.lr_scheduler import ReduceLROnPlateau
 
 from skhybrid.losses import OBJECTIVES, needs_time_order
 from skhybrid.neural._callbacks import BatchIterator, DivergenceCheck
+from skhybrid.neural._lockstep import lockstep_backward, lockstep_infer
 from skhybrid.neural._modules import ObjectiveLoss, SequenceObjectiveLoss
 from skhybrid.neural._pretraining import (
     CandidateEarlyStopping,
     finetune,
     propose_candidate,
 )
+from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._sklearn_compat import Interval, StrOptions
 
 __all__ = [
@@ -45,6 +50,7 @@ __all__ = [
     "draw_seed",
     "record_training",
     "rng_devices",
+    "seeded",
     "train_module",
     "training_constraints",
     "training_parameters_doc",
@@ -288,6 +294,24 @@ class _Net(NeuralNetRegressor):
                 if isinstance(layer, torch.nn.modules.batchnorm._BatchNorm):
                     layer.eval()
 
+    def infer(self, x, **fit_params):
+        """The module's output on batch ``x``, computed with the other members'
+        where fits train in lockstep (:mod:`skhybrid.neural._lockstep`)."""
+        if fit_params or current_member() is None:
+            return super().infer(x, **fit_params)
+        return lockstep_infer(self.module_, to_tensor(x, device=self.device))
+
+    def train_step_single(self, batch, **fit_params):
+        """skorch's training step, its backward pass run with the other members'."""
+        if fit_params or current_member() is None:
+            return super().train_step_single(batch, **fit_params)
+        self._set_training(True)
+        Xi, yi = unpack_data(batch)
+        y_pred = self.infer(Xi)
+        loss = self.get_loss(y_pred, yi, X=Xi, training=True)
+        lockstep_backward(loss)
+        return {"loss": loss, "y_pred": y_pred}
+
     def fit_loop(self, X, y=None, epochs=None, **fit_params):
         self.interrupted_ = False
         try:
@@ -520,6 +544,30 @@ def rng_devices(device):
     return []
 
 
+#: Held while a fit draws from torch's global random state: fits may train side
+#: by side in threads of one process (:mod:`skhybrid.utils._lockstep`).
+_GLOBAL_RNG = threading.RLock()
+
+
+@contextlib.contextmanager
+def seeded(seed, device="cpu"):
+    """Torch's global random state seeded with ``seed`` inside, restored after.
+
+    One thread at a time: a fit builds its modules in here, so that fits
+    training side by side in threads each get the weights they get alone.
+
+    Parameters
+    ----------
+    seed : int
+        Seed for :func:`torch.manual_seed`.
+    device : {"cpu", "cuda"}, default="cpu"
+        The training device (its CUDA random state is forked too).
+    """
+    with _GLOBAL_RNG, torch.random.fork_rng(devices=rng_devices(device)):
+        torch.manual_seed(seed)
+        yield
+
+
 def draw_seed(random_state):
     """A torch seed drawn from ``random_state`` (one draw per fit).
 
@@ -654,45 +702,50 @@ def train_module(
     else:
         train_split, valid_batch_size, monitor = None, batch_size, "train_loss"
     seed = draw_seed(p.random_state) if seed is None else seed
-    with torch.random.fork_rng(devices=rng_devices(p.device)):
-        torch.manual_seed(seed)
+    with seeded(seed, p.device):
         module = make_module()
-        net = _Net(
-            module=module,
-            criterion=criterion,
-            **{f"criterion__{k}": v for k, v in kwargs.items()},
-            optimizer=torch.optim.Adam,
-            **{f"optimizer__{k}": v for k, v in (optimizer_kwargs or {}).items()},
-            lr=p.lr,
-            max_epochs=p.max_epochs,
-            batch_size=batch_size,
-            train_split=train_split,
-            iterator_train=BatchIterator,
-            iterator_train__shuffle=True,
-            **iterator,
-            iterator_valid=BatchIterator,
-            iterator_valid__contiguous=time_ordered and not sequences,
-            iterator_valid__batch_size=valid_batch_size,
-            callbacks=training_callbacks(p, monitor),
-            device=p.device,
-            verbose=p.verbose,
+        # The batches draw from the net's own generator, which goes on from
+        # here as the global state would: a fit trains as before, and fits
+        # training beside it in threads do not take its draws.
+        generator = torch.Generator()
+        generator.set_state(torch.get_rng_state())
+    net = _Net(
+        module=module,
+        criterion=criterion,
+        **{f"criterion__{k}": v for k, v in kwargs.items()},
+        optimizer=torch.optim.Adam,
+        **{f"optimizer__{k}": v for k, v in (optimizer_kwargs or {}).items()},
+        lr=p.lr,
+        max_epochs=p.max_epochs,
+        batch_size=batch_size,
+        train_split=train_split,
+        iterator_train=BatchIterator,
+        iterator_train__shuffle=True,
+        iterator_train__generator=generator,
+        **iterator,
+        iterator_valid=BatchIterator,
+        iterator_valid__contiguous=time_ordered and not sequences,
+        iterator_valid__batch_size=valid_batch_size,
+        callbacks=training_callbacks(p, monitor),
+        device=p.device,
+        verbose=p.verbose,
+    )
+    if start_as_candidate:
+        net.initialize()
+        propose_candidate(net, *(valid or (X, y)), epoch=0)
+        # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
+        # stopping) and restores the best weights on the way out.
+        net.partial_fit(X, y, epochs=p.max_epochs)
+    else:
+        net.fit(X, y)
+    if pretrain and not net.interrupted_:
+        finetune(
+            net,
+            X,
+            y,
+            p.objective,
+            row_segment,
+            sequences=sequences,
+            valid=valid,
         )
-        if start_as_candidate:
-            net.initialize()
-            propose_candidate(net, *(valid or (X, y)), epoch=0)
-            # skorch catches KeyboardInterrupt (Ctrl-C, and its own early
-            # stopping) and restores the best weights on the way out.
-            net.partial_fit(X, y, epochs=p.max_epochs)
-        else:
-            net.fit(X, y)
-        if pretrain and not net.interrupted_:
-            finetune(
-                net,
-                X,
-                y,
-                p.objective,
-                row_segment,
-                sequences=sequences,
-                valid=valid,
-            )
     return net

@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments._measured_zoo import _records, _unused_pieces
+from skhybrid.experiments._measured_zoo import _records
 from skhybrid.hybrid import StateSpaceHybridRegressor
 
 
@@ -15,8 +15,9 @@ def decay(x, u, *, xp, a):
 
 def test_a_piece_too_short_to_train_on_is_named_by_its_record_and_samples():
     # Two records cut into pieces: the short record's one piece holds fewer
-    # than n_init + horizon samples. The hybrid warns with the piece's index;
-    # the run maps it back to the record and the samples it was cut from.
+    # than n_init + horizon samples. The hybrid warns with the piece's index
+    # and keeps it in unused_records_; the run maps it back to the record and
+    # the samples it was cut from.
     rng = np.random.default_rng(0)
     U = [rng.uniform(-1, 1, (90, 1)), rng.uniform(-1, 1, (6, 1))]
     Y = [np.cumsum(u, axis=0) * 0.1 for u in U]
@@ -32,4 +33,5 @@ def test_a_piece_too_short_to_train_on_is_named_by_its_record_and_samples():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model.fit_simulation(pieces_U, pieces_Y)
-    assert [origins[k] for k in _unused_pieces(caught)] == [(1, 0, 6)]
+    assert any("uses none of record 3 (6 samples" in str(w.message) for w in caught)
+    assert [origins[k] for k in model.unused_records_] == [(1, 0, 6)]

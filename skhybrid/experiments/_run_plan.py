@@ -175,7 +175,18 @@ class RunPlan:
         return [system.name for system in self.systems]
 
     def settings(self, seed):
-        """The run's settings at ``seed``."""
+        """The run's settings at ``seed``.
+
+        Parameters
+        ----------
+        seed : int
+            One of the run's seeds.
+
+        Returns
+        -------
+        settings : RunSettings
+            The run's ``quick`` and noise type at ``seed``.
+        """
         return RunSettings(quick=self.quick, seed=seed, noise_type=self.noise_type)
 
     @property
@@ -224,7 +235,7 @@ class RunPlan:
         folder : RunFolder
             The started run folder.
         n_jobs : int, default=1
-            joblib workers (-1: every core, or every Dask worker).
+            Workers of joblib (-1: every core, or every Dask worker).
         progress : bool, default=False
             Progress on standard error.
 

@@ -70,7 +70,7 @@ def check_seeds(seeds):
     return [int(s) for s in seeds]
 
 
-def measured_identity(system, quick, seeds):
+def measured_identity(system, quick, seeds, *, digest=True):
     """What makes two measured runs the same (a resumed run must match it).
 
     Parameters
@@ -81,6 +81,9 @@ def measured_identity(system, quick, seeds):
         Shorter fits.
     seeds : list of int
         The seeds.
+    digest : bool, default=True
+        Whether to take the spec's digest (False: ``"spec"`` is None, for a
+        system not yet bound).
 
     Returns
     -------
@@ -98,7 +101,7 @@ def measured_identity(system, quick, seeds):
         "commit": code["commit"],
         "kernels": code["kernels"],
         "systems": [system.name],
-        "spec": system.digest(),
+        "spec": system.digest() if digest else None,
         "quick": bool(quick),
         "seeds": list(seeds),
         "settings": settings.to_dict(),
@@ -192,16 +195,36 @@ class RunPlan:
     @property
     def identity(self):
         """What a resumed run must match (:class:`RunFolder`'s ``run.json``)."""
+        identity = self.settings_identity()
         if self.measured:
-            return measured_identity(self.bound[0], self.quick, self.seeds)
+            identity["spec"] = self.bound[0].digest()
+        else:
+            # What each spec says (its simulators, physics and protocol by name).
+            identity["specs"] = {system.name: system.digest() for system in self.bound}
+        return identity
+
+    def settings_identity(self):
+        """The part of :attr:`identity` known before any record is read.
+
+        Returns
+        -------
+        identity : dict
+            :attr:`identity` without the specs' digests (which a built-in
+            benchmark knows once its files are read): a folder holding a run
+            of other settings is refused before them.
+        """
+        if self.measured:
+            identity = measured_identity(
+                self.systems[0], self.quick, self.seeds, digest=False
+            )
+            del identity["spec"]
+            return identity
         return {
             "skhybrid": skhybrid.__version__,
             "systems": self.names,
             "quick": self.quick,
             "seed": self.seeds[0],
             "settings": self.settings(self.seeds[0]).to_dict(),
-            # What each spec says (its simulators, physics and protocol by name).
-            "specs": {system.name: system.digest() for system in self.bound},
         }
 
     @property

@@ -272,43 +272,16 @@ DASK_REQUIREMENTS = {
 }
 
 
-def _data_status(name, data):
-    """Where a measured system's files are, or that they will be fetched."""
-    import os
-    from pathlib import Path
-
-    from skhybrid.experiments._catalog import DATA_FILES
-
-    folder, files = DATA_FILES[name]
-    if data is not None:
-        places = [Path(data), Path(data) / folder]
-    else:
-        home = os.environ.get("SKHYBRID_DATA", Path("~") / "skhybrid_data")
-        places = [Path(home).expanduser() / folder]
-    for place in places:
-        if all((place / f).is_file() for f in files):
-            return f"data present in {place}"
-    if data is not None:
-        return f"data missing in {data}"
-    return "data not yet fetched (downloaded on the first run)"
-
-
 def _list(out, data=None):
-    from skhybrid.experiments._catalog import CATALOG
+    from skhybrid.experiments import list_systems
 
-    for name, (kind, title, shows) in CATALOG.items():
-        extra = f"; {_data_status(name, data)}" if kind == "measured" else ""
+    for name, kind, title, shows, where in list_systems(data):
+        extra = "" if where is None else f"; {where}"
         out.write(f"{name:<24} {kind:<9} {title} ({shows}{extra})\n")
 
 
 def _error(message):
     sys.stderr.write(f"skhybrid: error: {message}\n")
-
-
-def _system(name):
-    from skhybrid.experiments._registry import get_system
-
-    return get_system(name)
 
 
 class _SpecError(Exception):
@@ -460,50 +433,36 @@ def main(argv=None):
         return 2
 
     from skhybrid.exceptions import RefusedTestRecordsError
-    from skhybrid.experiments._store import RunFolder, RunFolderError
+    from skhybrid.experiments import RunFolderError, RunTransaction
 
     command = "skhybrid " + shlex.join(argv)
-    folder = RunFolder(args.out)
     try:
-        folder.prepare()  # the output folder is checked and locked before training
-    except RunFolderError as exc:
-        _error(str(exc))
-        return 2
-    except KeyboardInterrupt:
-        folder.lock.release()
-        folder.remove_if_unused()
-        sys.stderr.write("\nskhybrid: interrupted before training\n")
-        return 130
-    try:
-        return _run(args, argv, command, folder)
+        # The output folder is checked and locked before training.
+        with RunTransaction(args.out) as run:
+            return _run(args, argv, command, run)
     except (RunFolderError, _SpecError, RefusedTestRecordsError) as exc:
         _error(str(exc))
         return 2
     except KeyboardInterrupt:
-        # Ctrl-C after the lock but before the run's own handler (while the
-        # models are counted): nothing was trained, nothing to resume.
+        # Ctrl-C while the folder was locked or the models counted, before the
+        # run's own handler: nothing was trained, nothing to resume.
         sys.stderr.write("\nskhybrid: interrupted before training\n")
         return 130
-    finally:
-        folder.lock.release()
-        folder.remove_if_unused()
 
 
 def _plan(args):
     """What the run fits (a RunPlan), from the command line's arguments."""
-    from skhybrid.experiments._run_plan import RunPlan
+    from skhybrid.experiments import RunPlan, get_system
 
     if args.spec is not None:
-        from skhybrid.experiments._registry import system_of
-
         try:
-            systems = [system_of(_load_spec(args.spec))]
+            systems = [get_system(_load_spec(args.spec))]
         except (TypeError, ValueError) as exc:
             raise _SpecError(f"--system {args.spec}: {exc}") from None
     elif args.system == "all":
-        systems = [_system(name) for name in SIMULATED_SYSTEMS]
+        systems = [get_system(name) for name in SIMULATED_SYSTEMS]
     else:
-        systems = [_system(args.system)]
+        systems = [get_system(args.system)]
     try:
         return RunPlan(
             systems,
@@ -516,38 +475,28 @@ def _plan(args):
         raise _SpecError(str(exc)) from None
 
 
-def _run(args, argv, command, folder):
-    from skhybrid.experiments import check_claims, write_report
+def _run(args, argv, command, run):
+    """Run the plan in the started transaction ``run``; the exit status."""
+    from skhybrid.experiments import summary_lines
 
     plan = _plan(args)
     n_models = plan.n_models
     start = time.perf_counter()
-    started = False  # run.json is this run's only once start() has written it
     try:
-        # The folder's run first, then a measured system's files, at the
-        # boundary before the folder changes: a corrupt or missing file is one
-        # line and exit 2.
-        folder.check(plan.identity, overwrite=args.overwrite, resume=args.resume)
         try:
-            records = plan.record_digests()
+            # The folder's run first, then a measured system's files, at the
+            # boundary before the folder changes: a corrupt or missing file is
+            # one line and exit 2; every refusal of the folder comes here too.
+            n_finished = run.start(
+                plan, command, overwrite=args.overwrite, resume=args.resume
+            )
         except (ValueError, OSError) as exc:
             _error(str(exc))
             return 2
-        # Every refusal of the folder comes here too, before it changes.
-        n_finished = folder.start(
-            plan.identity,
-            command,
-            overwrite=args.overwrite,
-            resume=args.resume,
-            records=records,
-        )
-        started = True
-        # The new run has started cleanly: the run it replaces can go.
-        folder.discard_replaced()
         if n_finished:
             sys.stdout.write(
                 f"resuming: {n_finished} of {n_models} models already finished in "
-                f"{folder.path}\n"
+                f"{run.folder.path}\n"
             )
         with contextlib.ExitStack() as stack:
             n_jobs = args.n_jobs
@@ -558,34 +507,29 @@ def _run(args, argv, command, folder):
                     client = stack.enter_context(_dask_backend(args.dask, n_workers))
                 except _DaskError as exc:
                     _error(str(exc))
-                    folder.mark("failed", str(exc))
+                    run.failed(str(exc))
                     return 2
                 address = client.scheduler.address
                 sys.stdout.write(f"fitting on the Dask cluster at {address}\n")
                 n_jobs = -1  # every worker of the cluster
             try:
-                results = plan.fit(folder, n_jobs=n_jobs, progress=not args.no_progress)
+                results = plan.fit(
+                    run.folder, n_jobs=n_jobs, progress=not args.no_progress
+                )
             except FileNotFoundError as exc:  # a measured benchmark's files
                 _error(str(exc))
-                folder.mark("failed", str(exc))
+                run.failed(str(exc))
                 return 2
         # One wall time: the report's and the console's are the same number.
         wall = time.perf_counter() - start
-        paths = write_report(results, folder.path, command=command, wall_time=wall)
-        folder.complete()
+        paths = run.finish(results, command, wall_time=wall)
     except KeyboardInterrupt:
-        done = folder.n_finished()
-        if started:
-            folder.mark("interrupted", f"Ctrl-C after {done} of {n_models} models")
+        done = run.interrupted()
         sys.stderr.write(
             f"\nskhybrid: interrupted: {done} of {n_models} models are finished and "
-            f"kept in {folder.path}; resume with: {_resume_command(argv)}\n"
+            f"kept in {run.folder.path}; resume with: {_resume_command(argv)}\n"
         )
         return 130
-    except Exception as exc:
-        if started:
-            folder.mark("failed", f"{type(exc).__name__}: {exc}")
-        raise
     sys.stdout.write(f"wrote {paths['html']} ({wall:.1f} s)\n")
     if args.quick and not plan.measured:
         sys.stdout.write(
@@ -593,38 +537,9 @@ def _run(args, argv, command, folder):
             "are not evaluated on it (they are judged on the full run)\n"
         )
     for result in results:
-        if getattr(result.system, "measured", False):
-            _measured_lines(result)
-            continue
-        for claim in check_claims(result):
-            word = {True: "holds", False: "FAILS", None: "not evaluated"}[
-                claim["passed"]
-            ]
-            sys.stdout.write(f"  [{word}] {claim['claim']}: {claim['detail']}\n")
+        for line in summary_lines(result):
+            sys.stdout.write(line + "\n")
     return 0
-
-
-def _measured_lines(run):
-    """The console's summary of a measured run: choice, seal, chosen test RMSE."""
-    name, unit = run.system.name, run.system.unit
-    sys.stdout.write(
-        f"  {name}: chosen by cross-validation of the estimation records: "
-        f"{run.selected_model()}\n"
-        f"  sealed selection sha256 {run.sha256[:16]}... (selection.json), written "
-        "before the test records were read\n"
-    )
-    from skhybrid.experiments._measured_report import spread_text
-
-    _, chosen = run.test_summary()
-    seeds = ", ".join(map(str, run.seeds))
-    models = set(run.chosen().values())
-    # One model at every seed, none of whose fits depends on the seed.
-    deterministic = len(models) == 1 and models <= set(run.deterministic_models())
-    for split, spread in chosen.items():
-        text = spread_text(
-            spread, deterministic=deterministic, unit=unit, plus_minus="+-"
-        )
-        sys.stdout.write(f"  {split}: {text} (seeds {seeds})\n")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -20,7 +20,9 @@ initialisation window, physics, test records) run by :func:`run_system`, or by
 ``skhybrid run --system module:object``: the same candidate family, chosen by
 blocked cross-validation of the estimation records (searched at the first seed,
 refitted at each), with the
-selection sealed before the test records are read. The built-in systems are the
+selection sealed before the test records are read. Both run a :class:`RunPlan`
+(one identity, however the run was started) inside a :class:`RunTransaction`, the
+run folder's life cycle, as ``skhybrid run`` does. The built-in systems are the
 catalogue :mod:`skhybrid.benchmarks`, one module each;
 :func:`skhybrid.benchmarks.benchmark_spec` returns a measured benchmark's spec.
 """
@@ -31,6 +33,12 @@ import importlib
 # output folder (skhybrid.experiments._store) before torch and the zoo import.
 _LAZY = {
     "MEASURED_SYSTEMS": "_registry",
+    "RunFolderError": "_store",
+    "RunPlan": "_run_plan",
+    "RunTransaction": "_transaction",
+    "get_system": "_registry",
+    "list_systems": "_catalog",
+    "summary_lines": "_console",
     "SystemSpec": "_spec",
     "load_fitted": "_run_system",
     "run_system": "_run_system",
@@ -53,15 +61,21 @@ __all__ = [
     "ExperimentResult",
     "OneStepSizes",
     "OneStepWindows",
+    "RunFolderError",
+    "RunPlan",
     "RunSettings",
+    "RunTransaction",
     "SystemSpec",
     "check_claims",
+    "get_system",
     "hybrid_settings",
+    "list_systems",
     "load_fitted",
     "model_zoo",
     "run_experiment",
     "run_measured",
     "run_system",
+    "summary_lines",
     "write_report",
 ]
 

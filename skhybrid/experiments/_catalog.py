@@ -6,7 +6,10 @@ answers in a fraction of a second. ``tests/experiments/test_cli_startup.py``
 checks that the catalog says what the systems say.
 """
 
-__all__ = ["CATALOG", "DATA_FILES"]
+import os
+from pathlib import Path
+
+__all__ = ["CATALOG", "DATA_FILES", "list_systems"]
 
 #: name -> (kind, title, what the run shows)
 CATALOG = {
@@ -76,3 +79,58 @@ DATA_FILES = {
         ),
     ),
 }
+
+
+def _data_status(name, data):
+    """Where a measured system's files are, or that they will be fetched."""
+    folder, files = DATA_FILES[name]
+    if data is not None:
+        places = [Path(data), Path(data) / folder]
+    else:
+        home = os.environ.get("SKHYBRID_DATA", Path("~") / "skhybrid_data")
+        places = [Path(home).expanduser() / folder]
+    for place in places:
+        if all((place / f).is_file() for f in files):
+            return f"data present in {place}"
+    if data is not None:
+        return f"data missing in {data}"
+    return "data not yet fetched (downloaded on the first run)"
+
+
+def list_systems(data=None):
+    """The built-in systems, what each shows and, for a measured one, its files.
+
+    Answers without importing the systems (nor torch): ``skhybrid list`` prints
+    it.
+
+    Parameters
+    ----------
+    data : str or Path or None, default=None
+        A folder of measured benchmark files; None looks in the data home
+        (``$SKHYBRID_DATA``, else ``~/skhybrid_data``).
+
+    Returns
+    -------
+    systems : list of tuple
+        ``(name, kind, title, shows, data)`` for each system: ``kind`` is
+        ``"simulated"`` or ``"measured"``, ``data`` where a measured system's
+        files are (or that they are missing or not yet fetched), None for a
+        simulated one.
+
+    Examples
+    --------
+    >>> from skhybrid.experiments import list_systems
+    >>> name, kind, title, shows, data = list_systems()[0]
+    >>> name, kind, data
+    ('pendulum', 'simulated', None)
+    """
+    return [
+        (
+            name,
+            kind,
+            title,
+            shows,
+            _data_status(name, data) if kind == "measured" else None,
+        )
+        for name, (kind, title, shows) in CATALOG.items()
+    ]

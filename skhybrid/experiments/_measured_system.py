@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 from joblib import delayed, effective_n_jobs
 
+from skhybrid.experiments._describe import spec_digest
 from skhybrid.experiments._measured_search import fit_model
 from skhybrid.experiments._measured_zoo import (
     N_SPLITS,
@@ -133,11 +134,6 @@ class MeasuredSystem:
         return module.make_spec(data, quick=quick)
 
     @property
-    def builtin_module(self):
-        """The built-in benchmark's module of the catalogue, or None."""
-        return self._module
-
-    @property
     def spec(self):
         """The spec the system is bound to (after :meth:`new_result`)."""
         if self._spec is None:
@@ -219,7 +215,35 @@ class MeasuredSystem:
             return self._spec.published
         return getattr(self._module, "PUBLISHED", {})
 
-    # -- the runner's hooks ----------------------------------------------------
+    # -- the runner's hooks (its contract, ZooSystem) ---------------------------
+    def digest(self):
+        """SHA-256 of what the bound spec says before its records are read.
+
+        A built-in benchmark and its spec in Python
+        (:func:`~skhybrid.benchmarks.benchmark_spec`) give the same digest.
+
+        Returns
+        -------
+        digest : str
+            Hex digest (:func:`~skhybrid.experiments._describe.spec_digest`).
+        """
+        return spec_digest(self.spec)
+
+    def requirements(self, zoo):
+        """The models each model of ``zoo`` needs fitted before it starts.
+
+        Parameters
+        ----------
+        zoo : dict of str to ZooModel
+            As :meth:`model_zoo` returns it.
+
+        Returns
+        -------
+        requires : dict of str to tuple of str
+            Each model's ``requires``.
+        """
+        return {name: tuple(model.requires) for name, model in zoo.items()}
+
     def store_key(self, settings):
         """The run folder's name for this system's models at ``settings``' seed."""
         return f"{self.name}-seed-{settings.seed}"
@@ -535,6 +559,18 @@ class MeasuredResult:
                 self.predictions.setdefault(split, {})[name] = pred
         if runs:
             self.validation_runs[name] = [runs[i] for i in sorted(runs)]
+
+    def keep_estimator(self, name, estimator):
+        """Keep a fitted model in memory: the test records are run once sealed.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        estimator : object
+            The fitted model.
+        """
+        self.estimators[name] = estimator
 
     def score(self):
         """Nothing to score yet: the test records are scored once sealed.

@@ -276,7 +276,24 @@ class OneStepSystem:
         """
         return dict(self.spec.protocol.descriptions)
 
-    # -- the pipeline's hooks ---------------------------------------------------
+    # -- the pipeline's hooks (the runner's contract, ZooSystem) ---------------
+    def bind(self, data=None, quick=False):
+        """The system itself: its spec is its own, and it reads no file.
+
+        Parameters
+        ----------
+        data : None
+            Unused: a simulated system reads no files.
+        quick : bool, default=False
+            Unused: the sizes are chosen per run (:meth:`sizes`).
+
+        Returns
+        -------
+        system : OneStepSystem
+            ``self``.
+        """
+        return self
+
     def new_result(self, settings, data=None, searched=None):
         """Simulate the splits and return an :class:`ExperimentResult` without models.
 
@@ -317,6 +334,21 @@ class OneStepSystem:
             In the order the report lists them.
         """
         return model_zoo(self, settings)
+
+    def requirements(self, zoo):
+        """The models each model requires: none (each is fitted on its own).
+
+        Parameters
+        ----------
+        zoo : dict of str to estimator
+            As :meth:`model_zoo` returns it.
+
+        Returns
+        -------
+        requires : dict of str to tuple
+            An empty tuple for every model.
+        """
+        return {name: () for name in zoo}
 
     def open_folder(self, result, folder):
         """Prepare a run folder for this system's models (nothing to prepare).

@@ -12,8 +12,8 @@ import numpy as np
 
 import skhybrid
 from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._runner import run_experiment
-from skhybrid.experiments._sealed import record_digests, run_seeds, spec_digest
+from skhybrid.experiments._runner import fit_seed
+from skhybrid.experiments._sealed import record_digests, run_seeds
 from skhybrid.experiments._settings import RunSettings, check_settings
 
 __all__ = [
@@ -70,25 +70,29 @@ def check_seeds(seeds):
     return [int(s) for s in seeds]
 
 
-def measured_identity(system, quick, seeds):
+def measured_identity(system, quick, seeds, *, digest=True):
     """What makes two measured runs the same (a resumed run must match it).
 
     Parameters
     ----------
     system : MeasuredSystem
-        The system.
+        The system, bound to its spec (:meth:`~MeasuredSystem.bind`).
     quick : bool
         Shorter fits.
     seeds : list of int
         The seeds.
+    digest : bool, default=True
+        Whether to take the spec's digest (False: ``"spec"`` is None, for a
+        system not yet bound).
 
     Returns
     -------
     identity : dict
-        The version and commit, the CPU kernels, the system (a user's spec by
-        its digest, a built-in benchmark by its module), ``quick``, the seeds
-        and the settings: a resume never reuses models fitted under another
-        commit, other kernels or another spec.
+        The version and commit, the CPU kernels, the system (its spec's
+        digest: a built-in benchmark named on the command line and its spec
+        run from Python are one run), ``quick``, the seeds and the settings:
+        a resume never reuses models fitted under another commit, other
+        kernels or another spec.
     """
     settings = RunSettings(quick=bool(quick), seed=seeds[0])
     code = provenance()
@@ -97,22 +101,11 @@ def measured_identity(system, quick, seeds):
         "commit": code["commit"],
         "kernels": code["kernels"],
         "systems": [system.name],
-        "spec": _spec_identity(system),
+        "spec": system.digest() if digest else None,
         "quick": bool(quick),
         "seeds": list(seeds),
         "settings": settings.to_dict(),
     }
-
-
-def _spec_identity(system):
-    """A user's spec by its digest, a built-in benchmark by its module."""
-    module = system.builtin_module
-    if module is not None:
-        return module.__name__
-    try:
-        return spec_digest(system.spec)
-    except AttributeError:  # a system that builds its spec from its files
-        return f"{type(system).__module__}.{type(system).__qualname__}"
 
 
 class RunPlan:
@@ -162,8 +155,22 @@ class RunPlan:
         self.quick = bool(quick)
         self.data = data
         self.noise_type = noise_type
+        self._bound = None
         for system in systems:
             check_settings(system, self.settings(self.seeds[0]))
+
+    @property
+    def bound(self):
+        """The systems, each bound once for the run (a benchmark's files read).
+
+        The identity, the records' digests and the fit all use these: a run
+        resolves its systems once.
+        """
+        if self._bound is None:
+            self._bound = [
+                system.bind(self.data, self.quick) for system in self.systems
+            ]
+        return self._bound
 
     @property
     def names(self):
@@ -171,22 +178,53 @@ class RunPlan:
         return [system.name for system in self.systems]
 
     def settings(self, seed):
-        """The run's settings at ``seed``."""
+        """The run's settings at ``seed``.
+
+        Parameters
+        ----------
+        seed : int
+            One of the run's seeds.
+
+        Returns
+        -------
+        settings : RunSettings
+            The run's ``quick`` and noise type at ``seed``.
+        """
         return RunSettings(quick=self.quick, seed=seed, noise_type=self.noise_type)
 
     @property
     def identity(self):
         """What a resumed run must match (:class:`RunFolder`'s ``run.json``)."""
+        identity = self.settings_identity()
         if self.measured:
-            return measured_identity(self.systems[0], self.quick, self.seeds)
+            identity["spec"] = self.bound[0].digest()
+        else:
+            # What each spec says (its simulators, physics and protocol by name).
+            identity["specs"] = {system.name: system.digest() for system in self.bound}
+        return identity
+
+    def settings_identity(self):
+        """The part of :attr:`identity` known before any record is read.
+
+        Returns
+        -------
+        identity : dict
+            :attr:`identity` without the specs' digests (which a built-in
+            benchmark knows once its files are read): a folder holding a run
+            of other settings is refused before them.
+        """
+        if self.measured:
+            identity = measured_identity(
+                self.systems[0], self.quick, self.seeds, digest=False
+            )
+            del identity["spec"]
+            return identity
         return {
             "skhybrid": skhybrid.__version__,
             "systems": self.names,
             "quick": self.quick,
             "seed": self.seeds[0],
             "settings": self.settings(self.seeds[0]).to_dict(),
-            # What each spec says (its simulators, physics and protocol by name).
-            "specs": {system.name: system.digest() for system in self.systems},
         }
 
     @property
@@ -209,7 +247,7 @@ class RunPlan:
         if not self.measured:
             return None
         return record_digests(
-            self.systems[0], self.seeds, quick=self.quick, data=self.data
+            self.bound[0], self.seeds, quick=self.quick, data=self.data
         )
 
     def fit(self, folder, *, n_jobs=1, progress=False):
@@ -220,7 +258,7 @@ class RunPlan:
         folder : RunFolder
             The started run folder.
         n_jobs : int, default=1
-            joblib workers (-1: every core, or every Dask worker).
+            Workers of joblib (-1: every core, or every Dask worker).
         progress : bool, default=False
             Progress on standard error.
 
@@ -231,7 +269,7 @@ class RunPlan:
         """
         if self.measured:
             run = run_seeds(
-                self.systems[0],
+                self.bound[0],
                 seeds=self.seeds,
                 quick=self.quick,
                 n_jobs=n_jobs,
@@ -241,13 +279,13 @@ class RunPlan:
             )
             return [run]
         return [
-            run_experiment(
+            fit_seed(
                 system,
-                settings=self.settings(self.seeds[0]),
+                self.settings(self.seeds[0]),
                 n_jobs=n_jobs,
                 progress=progress,
                 folder=folder,
                 data=self.data,
             )
-            for system in self.systems
+            for system in self.bound
         ]

@@ -30,7 +30,6 @@ import shlex
 import numpy as np
 
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
-from skhybrid.experiments._report import write_report
 from skhybrid.experiments._run_plan import (
     DEFAULT_SEEDS,
     RunPlan,
@@ -39,6 +38,7 @@ from skhybrid.experiments._run_plan import (
 )
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments._store import RunFolder
+from skhybrid.experiments._transaction import RunTransaction
 from skhybrid.hybrid import TransformedInputSimulator
 
 __all__ = [
@@ -79,35 +79,10 @@ def _run_arguments(seeds, n_jobs, overwrite, resume):
 
 def _run_folder(plan, command, out, *, n_jobs, overwrite, resume, progress):
     """Run ``plan`` in the folder ``out`` as a transaction; its system's summary."""
-    identity = plan.identity
-    folder = RunFolder(out).prepare()
-    started = False  # run.json is this run's only once start() has written it
-    try:
-        # Every refusal comes before the folder changes: the folder's run, then
-        # the records (read and checked), then what the folder holds of them.
-        folder.check(identity, overwrite=overwrite, resume=resume)
-        records = plan.record_digests()
-        folder.start(
-            identity, command, overwrite=overwrite, resume=resume, records=records
-        )
-        started = True
-        # The new run has started cleanly: the run it replaces can go.
-        folder.discard_replaced()
-        results = plan.fit(folder, n_jobs=n_jobs, progress=progress)
-        paths = write_report(results, folder.path, command=command)
-        folder.complete()
-    except KeyboardInterrupt:
-        if started:
-            done = folder.n_finished()
-            folder.mark("interrupted", f"Ctrl-C after {done} finished models")
-        raise
-    except BaseException as exc:
-        if started:
-            folder.mark("failed", f"{type(exc).__name__}: {exc}")
-        raise
-    finally:
-        folder.lock.release()
-        folder.remove_if_unused()
+    with RunTransaction(out) as run:
+        run.start(plan, command, overwrite=overwrite, resume=resume)
+        results = plan.fit(run.folder, n_jobs=n_jobs, progress=progress)
+        paths = run.finish(results, command)
     (result,) = results
     if plan.measured:
         return result.summary()

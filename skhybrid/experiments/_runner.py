@@ -26,7 +26,7 @@ from skhybrid.experiments._simulated import ExperimentResult
 from skhybrid.experiments._store import VALIDATION_RUNS
 from skhybrid.experiments._workers import worker_restarts_explained
 
-__all__ = ["ExperimentResult", "fit_zoos", "run_experiment"]
+__all__ = ["ExperimentResult", "fit_seed", "fit_zoos", "run_experiment"]
 
 logger = logging.getLogger(__name__)
 
@@ -70,18 +70,15 @@ def _local_threads(backend, n_threads):
         yield
 
 
-def _stages(zoo, todo):
-    """``todo`` in stages: a model runs after the models it requires."""
+def _stages(requires, todo):
+    """``todo`` in stages: a model runs after the models it ``requires``."""
     stages, placed = [], set()
     while len(placed) < len(todo):
         stage = [
             name
             for name in todo
             if name not in placed
-            and all(
-                dep in placed or dep not in todo
-                for dep in getattr(zoo[name], "requires", ())
-            )
+            and all(dep in placed or dep not in todo for dep in requires[name])
         ]
         if not stage:
             raise ValueError(f"the zoo's requirements form a cycle among {todo}")
@@ -93,7 +90,7 @@ def _stages(zoo, todo):
 def _dependency(result, folder, name, record=None, out=None):
     """What a model that requires ``name`` reads of it: its fits, record and runs."""
     # Its out-of-fold free runs (a measured model's), as stored or restored.
-    runs = getattr(result, "validation_runs", {}).get(name)
+    runs = result.validation_runs.get(name)
     if out is not None:
         return {
             "model": out["estimator"],
@@ -178,20 +175,42 @@ def run_experiment(
         The fitted models' predictions, scores, parameters and fit records (a
         measured system's: its selection and fitted models, not yet scored).
     """
-    start = time.perf_counter()
     system = get_system(system)
     if settings is None:
         settings = RunSettings(quick=bool(quick), seed=seed)
     check_settings(system, settings)
-    (result,) = fit_zoos(
+    return fit_seed(
         system,
-        [settings],
+        settings,
         n_jobs=n_jobs,
         progress=progress,
         folder=folder,
         data=data,
         searched=searched,
     )
+
+
+def fit_seed(system, settings, **kwargs):
+    """Fit a resolved system's zoo at one seed; the result, timed.
+
+    Parameters
+    ----------
+    system : ZooSystem
+        The system, resolved once for the run (by the run's plan, or by
+        :func:`run_experiment`).
+    settings : RunSettings
+        The seed's settings, checked.
+    **kwargs
+        ``n_jobs``, ``progress``, ``folder``, ``data`` and ``searched``, as
+        :func:`run_experiment`'s.
+
+    Returns
+    -------
+    result : ExperimentResult or MeasuredResult
+        With its ``wall_time``.
+    """
+    start = time.perf_counter()
+    (result,) = fit_zoos(system, [settings], **kwargs)
     result.wall_time = time.perf_counter() - start
     return result
 
@@ -205,6 +224,7 @@ class _SeedFit:
         self.system = system = result.system  # a measured system bound to its spec
         self.settings = settings
         self.zoo = zoo = system.model_zoo(settings)
+        self.requires = requires = system.requirements(zoo)
         key = result.store_key
         if folder is not None:
             system.open_folder(result, folder)
@@ -224,11 +244,9 @@ class _SeedFit:
             ),
         )
         self.todo = [name for name in order if name not in done]
-        self.stages = _stages(zoo, self.todo)
+        self.stages = _stages(requires, self.todo)
         # The fits that models still to run require, as each finished or was stored.
-        self.needed = {
-            dep for name in self.todo for dep in getattr(zoo[name], "requires", ())
-        }
+        self.needed = {dep for name in self.todo for dep in requires[name]}
         self.deps = {
             name: _dependency(result, folder, name, record=done[name])
             for name in self.needed
@@ -237,7 +255,7 @@ class _SeedFit:
 
     def job(self, name, sink, n_jobs, n_threads):
         """The joblib call that fits ``name`` (its requirements' fits handed in)."""
-        needs = {k: self.deps[k] for k in getattr(self.zoo[name], "requires", ())}
+        needs = {k: self.deps[k] for k in self.requires[name]}
         return self.system.job(
             name,
             self.zoo[name],
@@ -297,8 +315,9 @@ def fit_zoos(
 
     Parameters
     ----------
-    system : System
-        The system (from :func:`~skhybrid.experiments._registry.get_system`).
+    system : ZooSystem
+        The system, resolved once for the run (see
+        :mod:`~skhybrid.experiments._system_protocol`).
     settings : list of RunSettings
         Each seed's settings.
     n_jobs, progress, folder, data, searched
@@ -390,7 +409,7 @@ def _whose(seeds, index, name):
     """The seed a finished model names (with several seeds), and whose search
     chose what it refits (a measured system's further seeds)."""
     fit = seeds[index]
-    searched = (getattr(fit.result, "searched", None) or {}).get(name)
+    searched = fit.result.searched.get(name)
     return {
         "seed": fit.settings.seed if len(seeds) > 1 else None,
         "searched_at": None if searched is None else searched.get("seed"),
@@ -420,8 +439,7 @@ def _record(result, name, out, folder):
         result.validation_runs[name] = runs
         stored.update({f"{VALIDATION_RUNS}{i}": run for i, run in enumerate(runs)})
     result.fits[name] = fit
-    if hasattr(result, "estimators"):
-        result.estimators[name] = out["estimator"]
+    result.keep_estimator(name, out["estimator"])
     if out["params"]:
         result.params[name] = out["params"]
     for split, pred in predictions.items():

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from skhybrid.exceptions import RefusedTestRecordsError
-from skhybrid.experiments._describe import canonical, describe
+from skhybrid.experiments._describe import canonical, spec_fields
 from skhybrid.experiments._measured_report import (
     hull_exit,
     measured_figure,
@@ -26,8 +26,7 @@ from skhybrid.experiments._measured_report import (
 from skhybrid.experiments._measured_stack import STACK, averaged_run
 from skhybrid.experiments._measured_zoo import simulate_records
 from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._registry import get_system
-from skhybrid.experiments._runner import fit_zoos, run_experiment
+from skhybrid.experiments._runner import fit_seed, fit_zoos
 from skhybrid.experiments._settings import RunSettings
 from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._stochastic import (
@@ -47,7 +46,6 @@ __all__ = [
     "run_seeds",
     "score_tests",
     "seal",
-    "spec_digest",
 ]
 
 
@@ -70,50 +68,11 @@ def describe_spec(spec, U, Y=None):
         candidate family and the notes.
     """
     return {
-        **_model_fields(spec),
+        **spec_fields(spec),
         "dt": spec.sample_period(),
         "record_lengths": [len(u) for u in U],
         "records_sha256": None if Y is None else records_digest(U, Y),
     }
-
-
-def _model_fields(spec):
-    """What a spec says of its system and candidates, without its records."""
-    return {
-        "name": spec.name,
-        "n_init": spec.n_init,
-        "physics": describe(spec.physics),
-        "physics_inputs": describe(spec.physics_inputs),
-        "segments": describe(spec.segments),
-        "hybrids": describe(spec.hybrids),
-        "hybrid_records": spec.hybrid_records,
-        "notes": spec.notes,
-    }
-
-
-def spec_digest(spec):
-    """SHA-256 of what a spec says before its records are read.
-
-    The physics, its inputs, the candidates, ``n_init``, ``dt`` and the notes,
-    described without memory addresses (:func:`describe_spec` without the
-    records): the same spec gives the same digest in every session.
-
-    Parameters
-    ----------
-    spec : SystemSpec
-        The system.
-
-    Returns
-    -------
-    digest : str
-        Hex digest.
-    """
-    fields = {
-        **_model_fields(spec),
-        "dt": spec.dt,
-        "physics_starts": describe(spec.physics_starts),
-    }
-    return hashlib.sha256(canonical(fields).encode()).hexdigest()
 
 
 def seal(results, folder_path):
@@ -718,7 +677,7 @@ def run_seeds(
     Parameters
     ----------
     system : MeasuredSystem
-        The system.
+        The system, resolved once for the run (bound by its plan).
     seeds : sequence of int
         The first seed searches; each seed refits the choices.
     quick : bool, default=False
@@ -750,9 +709,9 @@ def run_seeds(
     """
     start = time.perf_counter()
     seeds = list(seeds)
-    first = run_experiment(
+    first = fit_seed(
         system,
-        settings=RunSettings(quick=bool(quick), seed=seeds[0]),
+        RunSettings(quick=bool(quick), seed=seeds[0]),
         n_jobs=n_jobs,
         progress=progress,
         folder=folder,
@@ -763,7 +722,7 @@ def run_seeds(
         # The further seeds' refits, side by side in one pool of workers.
         refit_start = time.perf_counter()
         results += fit_zoos(
-            get_system(system),
+            first.system,
             [RunSettings(quick=bool(quick), seed=seed) for seed in seeds[1:]],
             n_jobs=n_jobs,
             progress=progress,

@@ -65,6 +65,10 @@ class ExperimentResult:
         :func:`~skhybrid.experiments._paper_stochastic.paper_stochastic`).
     wall_time : float
         Seconds for the whole run.
+    searched : dict
+        Empty: a simulated system makes no search (the runner's contract).
+    validation_runs : dict
+        Empty: a simulated system makes no out-of-fold free run.
     """
 
     def __init__(self, system, settings, splits):
@@ -82,6 +86,7 @@ class ExperimentResult:
         self.stochastic = {}
         self.wall_time = float("nan")
         self.searched = {}  # a simulated system makes no search
+        self.validation_runs = {}  # nor out-of-fold free runs
 
     @property
     def test_splits(self):
@@ -113,6 +118,17 @@ class ExperimentResult:
             self.params[name] = record["params"]
         for split, pred in folder.load_predictions(self.store_key, record).items():
             self.predictions[split][name] = pred
+
+    def keep_estimator(self, name, estimator):
+        """Keep nothing in memory: the run folder keeps each fitted model.
+
+        Parameters
+        ----------
+        name : str
+            The model's name.
+        estimator : object
+            The fitted model.
+        """
 
     def score(self):
         """Score every model on every test split, then the chosen model's part.

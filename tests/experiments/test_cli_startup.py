@@ -1,7 +1,12 @@
-"""`skhybrid --help`, `list` and `--version` answer without importing torch."""
+"""`skhybrid --help`, `list` and `--version` answer without importing torch.
 
+The command line goes through :mod:`skhybrid.experiments`' public names only.
+"""
+
+import ast
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -96,3 +101,23 @@ def test_list_into_a_pipe_closed_early_ends_quietly():
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 0
     assert "Traceback" not in err and "BrokenPipe" not in err
+
+
+def test_the_command_line_imports_nothing_private_of_experiments():
+    import skhybrid.cli
+    from skhybrid import experiments
+
+    tree = ast.parse(Path(skhybrid.cli.__file__).read_text())
+    imported = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module is not None:
+            imported += [(node.module, alias.name) for alias in node.names]
+        elif isinstance(node, ast.Import):
+            imported += [(alias.name, None) for alias in node.names]
+    from_experiments = [
+        (module, name) for module, name in imported if "experiments" in module
+    ]
+    assert from_experiments, "the walker must see the command line's imports"
+    for module, name in from_experiments:
+        assert module == "skhybrid.experiments", module
+        assert name in experiments.__all__, name

@@ -109,8 +109,7 @@ def _table(out):
 @pytest.mark.slow  # about 15 s: two clusters' worth of process starts
 def test_dask_local_run_gives_the_local_table(tmp_path, monkeypatch):
     pytest.importorskip("distributed", reason=NO_DASK)
-    from skhybrid import experiments
-    from skhybrid.experiments import _one_step, _simulated_report
+    from skhybrid.experiments import _console, _one_step, _simulated_report
 
     full_zoo = _one_step.model_zoo
 
@@ -119,7 +118,7 @@ def test_dask_local_run_gives_the_local_table(tmp_path, monkeypatch):
         return {k: full[k] for k in ("physics (refit)", "linear", "dense")}
 
     monkeypatch.setattr(_one_step, "model_zoo", zoo)
-    monkeypatch.setattr(experiments, "check_claims", lambda result: [])
+    monkeypatch.setattr(_console, "check_claims", lambda result: [])
     monkeypatch.setattr(_simulated_report, "check_claims", lambda result: [])
     argv = ["run", "pendulum", "--quick", "--no-progress", "--n-jobs", "2"]
     assert main([*argv, "--out", str(tmp_path / "local")]) == 0

@@ -20,7 +20,7 @@ import pytest
 
 from skhybrid import experiments
 from skhybrid.cli import main
-from skhybrid.experiments import _one_step, _simulated_report
+from skhybrid.experiments import _console, _one_step, _simulated_report
 from skhybrid.experiments._fitting import interrupts_raise
 from skhybrid.experiments._store import FolderLock, RunFolder, RunFolderError
 from skhybrid.hybrid import HybridBoostingRegressor
@@ -64,7 +64,7 @@ def tiny_zoo(monkeypatch, ctrl_c_at_epoch):
         monkeypatch.setattr(_one_step, "model_zoo", zoo)
 
     # The paper's claims compare models that the small zoo does not have.
-    monkeypatch.setattr(experiments, "check_claims", lambda result: [])
+    monkeypatch.setattr(_console, "check_claims", lambda result: [])
     monkeypatch.setattr(_simulated_report, "check_claims", lambda result: [])
 
     use()

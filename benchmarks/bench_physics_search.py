@@ -23,9 +23,9 @@ import warnings
 from joblib.externals.loky import get_reusable_executor
 
 from skhybrid.benchmarks import benchmark_spec
-from skhybrid.experiments._measured_search import fit_model
-from skhybrid.experiments._measured_system import MeasuredSystem
-from skhybrid.experiments._measured_zoo import MeasuredContext, zoo
+from skhybrid.experiments.free_run._family import MeasuredContext, zoo
+from skhybrid.experiments.free_run._search import fit_model
+from skhybrid.experiments.free_run._system import MeasuredSystem
 
 
 def main(argv=None):

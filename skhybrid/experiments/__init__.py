@@ -30,29 +30,29 @@ catalogue :mod:`skhybrid.benchmarks`, one module each;
 import importlib
 
 # Names load on first use (PEP 562), so that ``skhybrid run`` can check its
-# output folder (skhybrid.experiments._store) before torch and the zoo import.
+# output folder (skhybrid.experiments.run._store) before torch and the zoo import.
 _LAZY = {
     "MEASURED_SYSTEMS": "_registry",
-    "RunFolderError": "_store",
-    "RunPlan": "_run_plan",
-    "RunTransaction": "_transaction",
+    "RunFolderError": "run._store",
+    "RunPlan": "run._plan",
+    "RunTransaction": "run._transaction",
     "get_system": "_registry",
     "list_systems": "_catalog",
-    "summary_lines": "_console",
+    "summary_lines": "run._console",
     "SystemSpec": "_spec",
-    "load_fitted": "_run_system",
-    "run_system": "_run_system",
+    "load_fitted": "run._run_system",
+    "run_system": "run._run_system",
     "SYSTEMS": "_registry",
-    "ExperimentResult": "_simulated",
+    "ExperimentResult": "one_step._result",
     "OneStepSizes": "_protocol",
     "OneStepWindows": "_protocol",
     "RunSettings": "_settings",
-    "check_claims": "_claims",
+    "check_claims": "one_step._claims",
     "hybrid_settings": "_spec",
-    "model_zoo": "_one_step",
-    "run_experiment": "_runner",
-    "run_measured": "_run_system",
-    "write_report": "_report",
+    "model_zoo": "one_step._system",
+    "run_experiment": "run._runner",
+    "run_measured": "run._run_system",
+    "write_report": "run._report",
 }
 
 __all__ = [

@@ -7,7 +7,7 @@ read in any of them. A function or class written in the user's script
 pickle's check that the name gives back the very object: a worker holds the
 copies each task received by value, and names in its ``__main__`` only those
 of its first task (:func:`main_objects`, see
-:func:`~skhybrid.experiments._measured_search.expose_main_functions`). Read in
+:func:`~skhybrid.experiments.free_run._search.expose_main_functions`). Read in
 the run's process, the names give back the script's own.
 """
 
@@ -23,7 +23,7 @@ def check_picklable(spec):
     """Refuse, before any fit, a physics the run folder cannot store.
 
     The run folder stores fitted models with cloudpickle
-    (:meth:`~skhybrid.experiments._store.RunFolder.save_model`): functions
+    (:meth:`~skhybrid.experiments.run._store.RunFolder.save_model`): functions
     defined in ``__main__`` (a script, a notebook cell), lambdas and closures
     are stored by value and load in a new session. What cloudpickle cannot
     store either (an open file, a lock, a generator) is refused here.

@@ -4,15 +4,15 @@ The systems themselves are the modules of the catalogue,
 :mod:`skhybrid.benchmarks`, each a :class:`~skhybrid.experiments.SystemSpec`;
 this maps their names, and any spec, to what
 :func:`~skhybrid.experiments.run_experiment` runs: a spec of the one-step
-protocol as a :class:`~skhybrid.experiments._one_step.OneStepSystem`, a
-free-run one as a :class:`~skhybrid.experiments._measured_system.MeasuredSystem`.
+protocol as a :class:`~skhybrid.experiments.one_step._system.OneStepSystem`, a
+free-run one as a :class:`~skhybrid.experiments.free_run._system.MeasuredSystem`.
 """
 
 from skhybrid.benchmarks import MEASURED, SIMULATED
-from skhybrid.experiments._measured_system import MeasuredSystem
-from skhybrid.experiments._one_step import OneStepSystem
 from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._spec import SystemSpec
+from skhybrid.experiments.free_run._system import MeasuredSystem
+from skhybrid.experiments.one_step._system import OneStepSystem
 
 __all__ = ["MEASURED_SYSTEMS", "SYSTEMS", "get_system", "system_of"]
 

@@ -75,7 +75,8 @@ def test_list_shows_every_system_with_its_kind_and_data(tmp_path, capsys, monkey
 def test_claims_are_judged_on_full_settings_only(monkeypatch):
     from types import SimpleNamespace
 
-    from skhybrid.experiments import RunSettings, _claims
+    from skhybrid.experiments import RunSettings
+    from skhybrid.experiments.one_step import _claims
 
     def one_claim(result):
         return [{"claim": "c", "passed": False, "detail": "x = 2"}]

@@ -1,5 +1,5 @@
 """The measured zoo's static corrections (skhybrid.hybrid._correction) and its one
-choose-refit-score rule (skhybrid.experiments._measured_search.choose_and_refit)."""
+choose-refit-score rule (skhybrid.experiments.free_run._search.choose_and_refit)."""
 
 import inspect
 
@@ -12,9 +12,9 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.benchmarks.silverbox import with_next_input
-from skhybrid.experiments._measured_search import choose_and_refit, fit_model
-from skhybrid.experiments._measured_zoo import N_SPLITS, MeasuredContext, ZooModel
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
+from skhybrid.experiments.free_run._family import N_SPLITS, MeasuredContext, ZooModel
+from skhybrid.experiments.free_run._search import choose_and_refit, fit_model
 from skhybrid.hybrid._correction import (
     TransformedInputSimulator,
     _NARXSimulator,

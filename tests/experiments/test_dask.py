@@ -76,7 +76,7 @@ def test_grid_search_on_dask_gives_the_default_backends_best_params(client, rng)
 
 
 def test_epochs_are_counted_from_dask_events(client, rng):
-    from skhybrid.experiments._progress import DaskEventSink, attach_epoch_logger
+    from skhybrid.experiments.run._progress import DaskEventSink, attach_epoch_logger
     from skhybrid.hybrid import HybridBoostingRegressor
 
     X = rng.standard_normal((120, 3))
@@ -109,7 +109,9 @@ def _table(out):
 @pytest.mark.slow  # about 15 s: two clusters' worth of process starts
 def test_dask_local_run_gives_the_local_table(tmp_path, monkeypatch):
     pytest.importorskip("distributed", reason=NO_DASK)
-    from skhybrid.experiments import _console, _one_step, _simulated_report
+    from skhybrid.experiments.one_step import _report as _simulated_report
+    from skhybrid.experiments.one_step import _system as _one_step
+    from skhybrid.experiments.run import _console
 
     full_zoo = _one_step.model_zoo
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from sklearn.base import BaseEstimator
 
-from skhybrid.experiments._measured_stack import STACK, averaged_run, choose_stack
-from skhybrid.experiments._measured_zoo import N_SPLITS, MeasuredContext, zoo
+from skhybrid.experiments.free_run._family import N_SPLITS, MeasuredContext, zoo
+from skhybrid.experiments.free_run._stack import STACK, averaged_run, choose_stack
 from skhybrid.model_selection import RecordBlockSplit, StackedSimulation, take_pieces
 from skhybrid.model_selection._stacking import _simplex_weights
 

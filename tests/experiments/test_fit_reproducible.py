@@ -20,7 +20,7 @@ FIT = """
 import json, sys, warnings
 from skhybrid.datasets import load_emps
 from skhybrid.benchmarks.emps import physics as emps_physics
-from skhybrid.experiments._fitting import fit_segments
+from skhybrid.experiments.run._fitting import fit_segments
 warnings.simplefilter("ignore")
 d = load_emps(sys.argv[1])
 u, y = d.splits["train"].u, d.splits["train"].y

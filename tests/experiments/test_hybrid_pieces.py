@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments._measured_zoo import _records
+from skhybrid.experiments.free_run._family import _records
 from skhybrid.hybrid import StateSpaceHybridRegressor
 
 

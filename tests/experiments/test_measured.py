@@ -16,9 +16,9 @@ from skhybrid.benchmarks.silverbox import INTERSAMPLE, with_next_input
 from skhybrid.benchmarks.silverbox import physics as silverbox_physics
 from skhybrid.cli import main
 from skhybrid.exceptions import IdentifiabilityWarning, SimulationDivergedError
-from skhybrid.experiments._fitting import fit_segments
-from skhybrid.experiments._measured_zoo import _records, _rmse
-from skhybrid.experiments._run_system import run_measured
+from skhybrid.experiments.free_run._family import _records, _rmse
+from skhybrid.experiments.run._fitting import fit_segments
+from skhybrid.experiments.run._run_system import run_measured
 from skhybrid.hybrid._correction import _windows
 
 TRUTH = {"M": 95.0, "Fv_pos": 167.0, "Fv_neg": 240.0, "Fc_pos": 20.0, "Fc_neg": 21.0}
@@ -312,7 +312,7 @@ def test_silverbox_quick_run(shared_data_dir, tmp_path):
 
 
 def test_a_figure_over_seeds_says_what_its_spread_is():
-    from skhybrid.experiments._measured_report import spread_text
+    from skhybrid.experiments.free_run._report import spread_text
 
     three = {"mean": 0.2, "std": 0.01, "by_seed": [0.19, 0.2, 0.21]}
     assert spread_text(three, unit="mV") == "0.2 ± 0.01 mV"

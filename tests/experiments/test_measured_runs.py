@@ -32,8 +32,8 @@ from skhybrid.experiments import (
     _measured_zoo,
     _runner,
 )
-from skhybrid.experiments._measured_system import MeasuredSystem
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
+from skhybrid.experiments.free_run._system import MeasuredSystem
 
 REPO = Path(__file__).resolve().parents[2]
 TINY = ["dense NARX", "linear ARX", "physics", "physics + linear"]

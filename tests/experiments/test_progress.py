@@ -4,7 +4,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from skhybrid.domain import LinearStateSpaceModel
-from skhybrid.experiments._progress import FileSink, attach_epoch_logger
+from skhybrid.experiments.run._progress import FileSink, attach_epoch_logger
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
 
@@ -46,7 +46,7 @@ def test_epoch_logger_counts_epochs_of_nested_networks_in_workers(tmp_path, rng)
 
 
 def test_epoch_budget_counts_every_network_once_or_twice():
-    from skhybrid.experiments._progress import epoch_budget
+    from skhybrid.experiments.run._progress import epoch_budget
 
     booster = HybridBoostingRegressor(
         [
@@ -82,7 +82,7 @@ class _Terminal:
 
 
 def test_without_a_terminal_one_line_per_finished_model():
-    from skhybrid.experiments._progress import ProgressBars
+    from skhybrid.experiments.run._progress import ProgressBars
 
     stream = _Terminal(tty=False)
     bars = ProgressBars(3, "pendulum", n_done=1, n_epochs=50, stream=stream)
@@ -97,7 +97,7 @@ def test_without_a_terminal_one_line_per_finished_model():
 
 
 def test_on_a_terminal_both_bars_know_their_totals_from_the_start():
-    from skhybrid.experiments._progress import ProgressBars
+    from skhybrid.experiments.run._progress import ProgressBars
 
     stream = _Terminal(tty=True)
     bars = ProgressBars(4, "pendulum", n_epochs=120, stream=stream)
@@ -179,7 +179,7 @@ def test_fit_progress_refuses_a_hook_that_is_not_callable():
 
 def test_a_physics_fit_shows_its_evaluations_of_max_nfev_and_its_segments(tmp_path):
     from skhybrid.domain import fit_progress
-    from skhybrid.experiments._progress import ProgressBars, physics_hook
+    from skhybrid.experiments.run._progress import ProgressBars, physics_hook
 
     stream = _Terminal(tty=True)
     bars = ProgressBars(2, "toy", n_epochs=None, stream=stream)
@@ -196,7 +196,7 @@ def test_a_physics_fit_shows_its_evaluations_of_max_nfev_and_its_segments(tmp_pa
 
 
 def test_without_a_terminal_a_long_physics_fit_logs_a_line():
-    from skhybrid.experiments._progress import ProgressBars, physics_event
+    from skhybrid.experiments.run._progress import ProgressBars, physics_event
 
     stream = _Terminal(tty=False)
     now = [0.0]
@@ -220,7 +220,7 @@ def test_without_a_terminal_a_long_physics_fit_logs_a_line():
 
 
 def test_a_refit_at_a_further_seed_names_its_seed_and_the_search():
-    from skhybrid.experiments._progress import ProgressBars
+    from skhybrid.experiments.run._progress import ProgressBars
 
     stream = _Terminal(tty=False)
     bars = ProgressBars(2, "toy seed 1; toy seed 2", stream=stream)
@@ -235,14 +235,14 @@ def test_a_refit_at_a_further_seed_names_its_seed_and_the_search():
 
 
 def _context(U):
-    from skhybrid.experiments._measured_zoo import MeasuredContext
+    from skhybrid.experiments.free_run._family import MeasuredContext
 
     Y = [u.copy() for u in U]
     return MeasuredContext(None, U, Y, n_init=5, dt=1.0, quick=True, seed=0)
 
 
 def test_a_fit_says_which_fold_it_fits_or_that_it_refits_the_whole_records():
-    from skhybrid.experiments._measured_zoo import fit_pieces_label
+    from skhybrid.experiments.free_run._family import fit_pieces_label
     from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
     rng = np.random.default_rng(0)
@@ -304,7 +304,7 @@ class _Log(_Terminal):
 
 
 def test_a_log_never_goes_15_s_without_a_line_and_names_folds_epochs_and_seeds():
-    from skhybrid.experiments._progress import ProgressBars, Tagged
+    from skhybrid.experiments.run._progress import ProgressBars, Tagged
 
     now = [0.0]
     log = _Log(lambda: now[0])
@@ -391,7 +391,7 @@ def test_a_log_never_goes_15_s_without_a_line_and_names_folds_epochs_and_seeds()
 
 
 def test_the_search_clock_counts_each_candidates_folds_and_the_refit():
-    from skhybrid.experiments._progress_lines import SearchClock
+    from skhybrid.experiments.run._progress_lines import SearchClock
 
     clock = SearchClock(n_candidates=2, n_folds=4, n_workers=2)
     assert clock.remaining() is None  # nothing to go by yet
@@ -441,7 +441,8 @@ def test_a_small_runs_log_names_folds_and_seeds_and_is_never_quiet(
     import time
 
     from skhybrid.domain import StateSpaceModel
-    from skhybrid.experiments import SystemSpec, _progress, run_system
+    from skhybrid.experiments import SystemSpec, run_system
+    from skhybrid.experiments.run import _progress
 
     spec = SystemSpec(
         name="tiny",
@@ -493,7 +494,7 @@ def test_a_small_runs_log_names_folds_and_seeds_and_is_never_quiet(
 
 
 def test_dask_events_are_read_once_and_their_epochs_counted():
-    from skhybrid.experiments._progress import DaskEventSink, _encode
+    from skhybrid.experiments.run._progress import DaskEventSink, _encode
 
     sink = DaskEventSink("skhybrid-test")
     epoch = {"kind": "epoch", "name": "dense", "epoch": 1, "max_epochs": 5}

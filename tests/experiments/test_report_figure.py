@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from skhybrid.experiments._measured_report import _limits, failure_reason
+from skhybrid.experiments.free_run._report import _limits, failure_reason
 
 
 def test_the_axis_is_the_measured_signals_with_a_margin():

@@ -20,9 +20,11 @@ import pytest
 
 from skhybrid import experiments
 from skhybrid.cli import main
-from skhybrid.experiments import _console, _one_step, _simulated_report
-from skhybrid.experiments._fitting import interrupts_raise
-from skhybrid.experiments._store import FolderLock, RunFolder, RunFolderError
+from skhybrid.experiments.one_step import _report as _simulated_report
+from skhybrid.experiments.one_step import _system as _one_step
+from skhybrid.experiments.run import _console
+from skhybrid.experiments.run._fitting import interrupts_raise
+from skhybrid.experiments.run._store import FolderLock, RunFolder, RunFolderError
 from skhybrid.hybrid import HybridBoostingRegressor
 from skhybrid.neural import DenseRegressor
 

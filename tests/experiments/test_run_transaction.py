@@ -28,7 +28,7 @@ import skhybrid.model_selection
 from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import RefusedTestRecordsError
 from skhybrid.experiments import SystemSpec, load_fitted, run_system
-from skhybrid.experiments._store import RunFolderError
+from skhybrid.experiments.run._store import RunFolderError
 
 
 def first_order(x, u, *, xp, a, b):
@@ -146,7 +146,7 @@ LOAD = textwrap.dedent(
     import numpy as np
 
     from skhybrid.experiments import load_fitted
-    from skhybrid.experiments._store import RunFolder
+    from skhybrid.experiments.run._store import RunFolder
 
     out, u, y = sys.argv[1], *np.load(sys.argv[2]).values()
     folder = RunFolder(out)
@@ -227,7 +227,7 @@ def test_a_physics_defined_in_main_loads_in_a_new_session_and_the_seal_repeats(
 
 def test_the_seal_names_callables_by_module_and_qualname():
     from skhybrid.experiments._describe import canonical as _canonical
-    from skhybrid.experiments._sealed import describe_spec
+    from skhybrid.experiments.free_run._seal import describe_spec
 
     spec = make_spec(physics_inputs=np.negative)
     U, Y = spec.estimation_records()
@@ -282,8 +282,8 @@ def test_a_refused_resume_leaves_run_json_as_it_was(run):
 
 
 def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkeypatch):
-    from skhybrid.experiments import _run_plan
-    from skhybrid.experiments._store import RunFolder
+    from skhybrid.experiments.run import _plan as _run_plan
+    from skhybrid.experiments.run._store import RunFolder
 
     seen = {}
     discard = RunFolder.discard_replaced
@@ -313,7 +313,7 @@ def test_overwrite_moves_the_old_run_aside_until_the_new_one_started(run, monkey
 
 
 def test_run_json_ends_failed_after_an_error_in_python(tmp_path, monkeypatch):
-    from skhybrid.experiments import _run_plan
+    from skhybrid.experiments.run import _plan as _run_plan
 
     def fail(*args, **kwargs):
         raise RuntimeError("a fit broke")
@@ -438,7 +438,7 @@ def test_bad_arguments_are_refused_before_the_folder(tmp_path, kwargs, error, wo
 def test_an_int_is_one_seed_and_none_the_default_seeds(
     tmp_path, monkeypatch, seeds, expected
 ):
-    from skhybrid.experiments import _run_system
+    from skhybrid.experiments.run import _run_system
 
     seen = {}
 

@@ -17,8 +17,9 @@ from joblib import parallel_config
 from threadpoolctl import threadpool_info
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments import SystemSpec, _measured_system, run_system
-from skhybrid.experiments._test_runs import simulate_tests
+from skhybrid.experiments import SystemSpec, run_system
+from skhybrid.experiments.free_run import _system as _measured_system
+from skhybrid.experiments.free_run._test_runs import simulate_tests
 from skhybrid.model_selection import StackedSimulation
 
 

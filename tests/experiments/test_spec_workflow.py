@@ -448,7 +448,7 @@ def test_the_original_protocol_starts_from_the_estimation_records_state(
 
     # The physics' free run from the state of the first estimation record's start,
     # scored over every sample.
-    from skhybrid.experiments._sealed import _from_estimation_start
+    from skhybrid.experiments.free_run._scoring import _from_estimation_start
 
     (u0, y0), _ = machine.record(600, 0), None
     u, y = machine.record(400, 7)
@@ -470,7 +470,7 @@ def test_the_original_protocol_runs_the_state_space_hybrid_from_that_state(
 ):
     import joblib
 
-    from skhybrid.experiments._sealed import _from_estimation_start
+    from skhybrid.experiments.free_run._scoring import _from_estimation_start
 
     spec = machine.make_spec(out=tmp_path / "run", score_from_estimation_start=True)
     summary = run_system(spec, tmp_path / "run", quick=True, seeds=[0], n_jobs=1)
@@ -509,7 +509,7 @@ def test_a_resumed_run_refuses_records_that_changed(machine, tmp_path):
     changed = machine.make_spec(
         out=out, hybrids=None, records=[machine.record(600, 5), machine.record(440, 6)]
     )
-    from skhybrid.experiments._store import RunFolderError
+    from skhybrid.experiments.run._store import RunFolderError
 
     with pytest.raises(RunFolderError, match="fitted on other records"):
         run_system(changed, out, quick=True, seeds=[0], resume=True, n_jobs=1)
@@ -771,9 +771,10 @@ def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
 ):
     import sys
 
-    from skhybrid.experiments import _measured_system, _measured_zoo
-    from skhybrid.experiments._measured_system import MeasuredSystem
     from skhybrid.experiments._spec import records_digest
+    from skhybrid.experiments.free_run import _family as _measured_zoo
+    from skhybrid.experiments.free_run import _system as _measured_system
+    from skhybrid.experiments.free_run._system import MeasuredSystem
 
     # The equations written in the user's script (``__main__``), as
     # docs/own_machine.md shows: the workers receive them by value.
@@ -832,7 +833,7 @@ def test_the_physics_is_fitted_once_per_fold_for_the_whole_family(
 
 
 def test_run_system_shows_progress_by_default(machine, tmp_path, capsys, monkeypatch):
-    from skhybrid.experiments import _runner
+    from skhybrid.experiments.run import _runner
 
     bars = []
 
@@ -859,7 +860,7 @@ def test_run_system_shows_progress_by_default(machine, tmp_path, capsys, monkeyp
 
 
 def test_the_epoch_total_counts_folds_candidates_and_refits(machine):
-    from skhybrid.experiments._measured_system import MeasuredSystem, _context
+    from skhybrid.experiments.free_run._system import MeasuredSystem, _context
 
     spec = machine.make_spec(
         hybrids={

@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import skhybrid.experiments._runner as runner
+import skhybrid.experiments.run._runner as runner
 from skhybrid.benchmarks import MEASURED, SIMULATED
 from skhybrid.domain import StateSpaceModel
 from skhybrid.experiments import RunSettings, SystemSpec
-from skhybrid.experiments._measured_system import MeasuredResult, MeasuredSystem
-from skhybrid.experiments._one_step import OneStepSystem
-from skhybrid.experiments._simulated import ExperimentResult
-from skhybrid.experiments._system_protocol import ZooResult, ZooSystem
+from skhybrid.experiments.free_run._system import MeasuredResult, MeasuredSystem
+from skhybrid.experiments.one_step._result import ExperimentResult
+from skhybrid.experiments.one_step._system import OneStepSystem
+from skhybrid.experiments.run._contract import ZooResult, ZooSystem
 
 
 def first_order(x, u, *, xp, a, b):

@@ -5,14 +5,14 @@ import pytest
 from scipy.signal import lfilter
 from sklearn.utils import Bunch
 
-from skhybrid.experiments._measured_report import (
+from skhybrid.experiments._stochastic import residual_tests
+from skhybrid.experiments.free_run._report import (
     _chosen_cv_text,
     _params_html,
     _stochastic_html,
     legend_beside,
 )
-from skhybrid.experiments._stochastic import residual_tests
-from skhybrid.experiments._verdicts import (
+from skhybrid.experiments.free_run._verdicts import (
     coverage_verdict,
     input_verdict,
     standard_error_caveat,

@@ -3,8 +3,11 @@
 import threading
 import warnings
 
-from skhybrid.experiments import _test_runs
-from skhybrid.experiments._workers import WORKER_RESTARTED, worker_restarts_explained
+from skhybrid.experiments.free_run import _test_runs
+from skhybrid.experiments.run._workers import (
+    WORKER_RESTARTED,
+    worker_restarts_explained,
+)
 
 LOKY = (
     "A worker stopped while some jobs were given to the executor. This can be "

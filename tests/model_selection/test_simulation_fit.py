@@ -11,7 +11,7 @@ from sklearn.frozen import FrozenEstimator
 from sklearn.utils import check_array, estimator_checks
 
 from skhybrid.domain import StateSpaceModel
-from skhybrid.experiments._fitting import fit_segments
+from skhybrid.experiments.run._fitting import fit_segments
 from skhybrid.model_selection import SimulationFit, SimulationSearchCV
 
 N_INIT = 4

@@ -11,8 +11,8 @@ first ``n_init`` measured outputs, as the official protocol simulates a test
 record; its score is the mean over the folds of the RMSE over every held-out
 sample. The chosen candidate is refitted on the whole records. Test records are
 simulated later, once the selection is sealed
-(:mod:`skhybrid.experiments._sealed`). That rule is written once, in
-:mod:`skhybrid.experiments._measured_search`; each model of the zoo is a
+(:mod:`skhybrid.experiments.free_run._seal`). That rule is written once, in
+:mod:`skhybrid.experiments.free_run._search`; each model of the zoo is a
 :class:`ZooModel`: its candidates, how one is fitted, and what it needs from
 models fitted before it.
 """
@@ -31,17 +31,17 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel, fit_progress
 from skhybrid.exceptions import SimulationDivergedError
-from skhybrid.experiments._fitting import (
+from skhybrid.experiments._spec import pieces_per_record
+from skhybrid.experiments.free_run._stack import STACK, choose_stack
+from skhybrid.experiments.run._fitting import (
     fit_segments,
 )
-from skhybrid.experiments._measured_stack import STACK, choose_stack
-from skhybrid.experiments._progress import (
+from skhybrid.experiments.run._progress import (
     Tagged,
     attach_epoch_logger,
     epoch_budget,
     physics_hook,
 )
-from skhybrid.experiments._spec import pieces_per_record
 from skhybrid.hybrid import (
     NARXSimulator,
     PhysicsCorrection,
@@ -236,12 +236,12 @@ class ZooModel:
         What the report says of the model's candidates.
     epochs : callable or None, default=None
         ``epochs(ctx)`` returns the most epochs one fit of each candidate can
-        train (:func:`~skhybrid.experiments._progress.epoch_budget` of its
+        train (:func:`~skhybrid.experiments.run._progress.epoch_budget` of its
         networks), in the order of its candidates; None for a model without
         networks. The progress bar's total (:func:`epochs_at_most`).
     choose : callable or None, default=None
         ``choose(model, ctx, deps)`` returns ``(fitted, selection, runs)`` as
-        :func:`~skhybrid.experiments._measured_search.choose_and_refit` does,
+        :func:`~skhybrid.experiments.free_run._search.choose_and_refit` does,
         for a model chosen otherwise than by searching its candidates (the
         family's stack, from the other models' out-of-fold runs); None
         searches ``candidates`` with ``fit``.

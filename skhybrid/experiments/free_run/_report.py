@@ -6,14 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
-from skhybrid.experiments._html import p_value
-from skhybrid.experiments._store import SELECTION_FILE, _slug
-from skhybrid.experiments._verdicts import (
+from skhybrid.experiments.free_run._verdicts import (
     coverage_verdict,
     input_verdict,
     standard_error_caveat,
     whiteness_verdict,
 )
+from skhybrid.experiments.run._html import p_value
+from skhybrid.experiments.run._store import SELECTION_FILE, _slug
 from skhybrid.model_selection import in_convex_hull
 
 __all__ = ["hull_exit", "legend_beside", "measured_figure", "measured_section"]

@@ -1,112 +1,32 @@
-"""The sealed test: every seed's selection is frozen and hashed before any test record.
+"""A sealed seed scored on the test records, and a measured run over its seeds.
 
-A measured run searches the candidate family at its first seed and refits each
-choice at every seed (:func:`run_seeds`), then writes
-``selection.json``: the spec's description, every candidate's validation RMSE,
-every choice and the chosen model of each seed, with the SHA-256 of all of it.
-Only then are the test records read (:meth:`SystemSpec.test_records`) and every
-fitted model simulated on them (:func:`score_tests`). The report prints the hash
-beside the test figures, so a reader can check that the figures come from the
-selection the file records, made before the test was seen.
+:func:`score_tests` simulates (or takes the free runs of) every fitted model of
+one seed on each test record and scores it; :func:`stochastic_part` fits the
+chosen model's noise model on its out-of-fold residuals (never on a test
+record) and lays its band on each test record's free run. :class:`MeasuredRun`
+holds every seed's scores and the seal: the spread over seeds, the report's
+section and the system's entry of ``results.json``.
 """
-
-import hashlib
-import json
-import time
 
 import numpy as np
 
-from skhybrid.exceptions import RefusedTestRecordsError
-from skhybrid.experiments._describe import canonical, spec_fields
-from skhybrid.experiments._measured_report import (
-    hull_exit,
-    measured_figure,
-    measured_section,
-)
-from skhybrid.experiments._measured_stack import STACK, averaged_run
-from skhybrid.experiments._measured_zoo import simulate_records
-from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._runner import fit_seed, fit_zoos
-from skhybrid.experiments._settings import RunSettings
-from skhybrid.experiments._spec import records_digest
 from skhybrid.experiments._stochastic import (
     BAND_LEVEL,
     band_coverage,
     fit_noise,
     residual_tests,
 )
-from skhybrid.experiments._store import SELECTION_FILE, _write_atomic
-from skhybrid.experiments._test_runs import simulate_tests
+from skhybrid.experiments.free_run._family import simulate_records
+from skhybrid.experiments.free_run._report import (
+    hull_exit,
+    measured_figure,
+    measured_section,
+)
+from skhybrid.experiments.free_run._stack import STACK, averaged_run
+from skhybrid.experiments.run._store import SELECTION_FILE
 from skhybrid.model_selection import StackedSimulation
 
-__all__ = [
-    "MeasuredRun",
-    "describe_spec",
-    "record_digests",
-    "run_seeds",
-    "score_tests",
-    "seal",
-]
-
-
-def describe_spec(spec, U, Y=None):
-    """What of a spec the selection depends on, as JSON-ready data.
-
-    Parameters
-    ----------
-    spec : SystemSpec
-        The system.
-    U : list of ndarray
-        Its estimation records' inputs (their lengths are recorded).
-    Y : list of ndarray or None, default=None
-        Their outputs; with them, the records' SHA-256 is recorded too.
-
-    Returns
-    -------
-    description : dict
-        Name, sample period, ``n_init``, record lengths, the physics, the
-        candidate family and the notes.
-    """
-    return {
-        **spec_fields(spec),
-        "dt": spec.sample_period(),
-        "record_lengths": [len(u) for u in U],
-        "records_sha256": None if Y is None else records_digest(U, Y),
-    }
-
-
-def seal(results, folder_path):
-    """Write the frozen selection of every seed and its hash; return both.
-
-    Parameters
-    ----------
-    results : list of MeasuredResult
-        One per seed, every model fitted and chosen; no test record read.
-    folder_path : Path or None
-        The run folder (``selection.json`` goes there); None writes nothing.
-
-    Returns
-    -------
-    sealed : dict
-        ``sha256`` and ``selection`` (what was hashed).
-    """
-    system = results[0].system
-    selection = {
-        "system": describe_spec(system.spec, *results[0].train),
-        "seeds": [r.selection() for r in results],
-        # The code and CPU kernels the selection was made with.
-        "provenance": provenance(),
-    }
-    digest = hashlib.sha256(canonical(selection).encode()).hexdigest()
-    sealed = {"sha256": digest, "selection": selection}
-    if folder_path is not None:
-        text = json.dumps(
-            {"sha256": digest, "hashed": "canonical JSON of 'selection'", **sealed},
-            indent=1,
-            default=str,
-        )
-        _write_atomic(folder_path / SELECTION_FILE, lambda p: p.write_text(text))
-    return sealed
+__all__ = ["ORIGINAL_PROTOCOL", "MeasuredRun", "score_tests", "stochastic_part"]
 
 
 def score_tests(result, tests, folder=None, runs=None):
@@ -123,7 +43,7 @@ def score_tests(result, tests, folder=None, runs=None):
         test-predictions.npz``, keys ``<test>/<model>``).
     runs : dict or None, default=None
         The models' free runs of the test records, as
-        :func:`~skhybrid.experiments._test_runs.simulate_tests` gives them for
+        :func:`~skhybrid.experiments.free_run._test_runs.simulate_tests` gives them for
         this seed; None simulates them here.
     """
     result.tests = dict(tests)
@@ -606,146 +526,3 @@ class MeasuredRun:
             "fits": {str(r.settings.seed): r.fits for r in self.results},
             "results": self.rows,
         }
-
-
-def record_digests(system, seeds, *, quick=False, data=None):
-    """Read and check the estimation records; their SHA-256 under each seed's name.
-
-    A run calls it before its folder changes: a bad record (or a test record
-    given as data that does not fit them) is refused here, and a run carried on
-    must find the records its finished models were fitted on
-    (:meth:`~skhybrid.experiments._store.RunFolder.start`).
-
-    Parameters
-    ----------
-    system : MeasuredSystem
-        The system.
-    seeds : list of int
-        The run's seeds.
-    quick : bool, default=False
-        A built-in benchmark's quick form.
-    data : str or Path or None, default=None
-        A built-in benchmark's data folder; None fetches its files.
-
-    Returns
-    -------
-    digests : dict of str to str
-        ``{name of a seed's models in the folder: SHA-256 of the records}``.
-    """
-    bound = system.bind(data, quick)
-    digest = records_digest(*bound.spec.estimation_records())
-    return {bound.store_key(RunSettings(seed=seed)): digest for seed in seeds}
-
-
-def first_searches(result):
-    """Each model's search at ``result``'s seed, for the run's further seeds.
-
-    Parameters
-    ----------
-    result : MeasuredResult
-        The first seed's selection.
-
-    Returns
-    -------
-    searched : dict of str to dict
-        ``{model: {"selection", "runs", "seed"}}`` for every model that was
-        searched.
-    """
-    return {
-        name: {
-            "selection": fit["selection"],
-            "runs": result.validation_runs.get(name),
-            "seed": int(result.settings.seed),
-        }
-        for name, fit in result.fits.items()
-        if fit.get("selection")
-    }
-
-
-def run_seeds(
-    system,
-    *,
-    seeds,
-    quick=False,
-    n_jobs=1,
-    progress=False,
-    folder=None,
-    data=None,
-):
-    """Select at every seed, seal, then read and score the test records.
-
-    Parameters
-    ----------
-    system : MeasuredSystem
-        The system, resolved once for the run (bound by its plan).
-    seeds : sequence of int
-        The first seed searches; each seed refits the choices.
-    quick : bool, default=False
-        Shorter fits and fewer candidates.
-    n_jobs : int, default=1
-        Models fitted in parallel.
-    progress : bool, default=False
-        Progress bars on standard error.
-    folder : RunFolder or None, default=None
-        The run folder (finished models kept, ``selection.json`` written).
-    data : str or Path or None, default=None
-        A built-in benchmark's data folder; None fetches its files.
-
-    Returns
-    -------
-    run : MeasuredRun
-        Every seed's selection and test scores, and the seal.
-
-    Notes
-    -----
-    Every model's search (each candidate on every fold) runs at the first seed,
-    fold ``k``'s networks at ``seeds[0] + k``; each further seed refits the
-    chosen candidate on the whole records at its own seed. The spread over
-    seeds is the refits' spread; the CV figures are the one search's. The
-    further seeds' refits run side by side on ``n_jobs`` workers (each with
-    the threads of a search's worker, so a refit's numbers do not depend on
-    what runs beside it); each of their results' ``wall_time`` is the time
-    they took together.
-    """
-    start = time.perf_counter()
-    seeds = list(seeds)
-    first = fit_seed(
-        system,
-        RunSettings(quick=bool(quick), seed=seeds[0]),
-        n_jobs=n_jobs,
-        progress=progress,
-        folder=folder,
-        data=data,
-    )
-    results = [first]
-    if len(seeds) > 1:
-        # The further seeds' refits, side by side in one pool of workers.
-        refit_start = time.perf_counter()
-        results += fit_zoos(
-            first.system,
-            [RunSettings(quick=bool(quick), seed=seed) for seed in seeds[1:]],
-            n_jobs=n_jobs,
-            progress=progress,
-            folder=folder,
-            data=data,
-            searched=first_searches(first),
-        )
-        for result in results[1:]:
-            result.wall_time = time.perf_counter() - refit_start
-    sealed = seal(results, None if folder is None else folder.path)
-    # The first read of the test records: after the selection file is written.
-    # Checked against the estimation records before any model is simulated.
-    try:
-        tests = results[0].system.spec.test_records(*results[0].train)
-    except (TypeError, ValueError) as exc:
-        where = "" if folder is None else f" in {folder.path / SELECTION_FILE}"
-        raise RefusedTestRecordsError(
-            f"{exc} The selection is sealed{where}: fix the test records, then "
-            "run the same command with --resume (resume=True) to score it."
-        ) from exc
-    runs = simulate_tests(results, tests, n_jobs=n_jobs)
-    for result, seed_runs in zip(results, runs, strict=True):
-        score_tests(result, tests, folder, runs=seed_runs)
-    run = MeasuredRun(results, sealed)
-    run.wall_time = time.perf_counter() - start
-    return run

@@ -1,6 +1,6 @@
 """The measured zoo's one choose-refit rule: the search, its cache, one model's fit.
 
-Every model of the zoo (:mod:`skhybrid.experiments._measured_zoo`) is chosen by
+Every model of the zoo (:mod:`skhybrid.experiments.free_run._family`) is chosen by
 blocked cross-validation of the estimation records
 (:class:`~skhybrid.model_selection.SimulationSearchCV` over
 :class:`~skhybrid.model_selection.RecordBlockSplit`) and its choice refitted on
@@ -25,11 +25,11 @@ import numpy as np
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import FitFailedWarning
 
-from skhybrid.experiments._fitting import interrupts_raise, physical_params
-from skhybrid.experiments._measured_zoo import N_SPLITS, zoo
 from skhybrid.experiments._pickling import dump_fit, load_fit, main_objects
 from skhybrid.experiments._spec import records_digest
-from skhybrid.experiments._store import _write_atomic
+from skhybrid.experiments.free_run._family import N_SPLITS, zoo
+from skhybrid.experiments.run._fitting import interrupts_raise, physical_params
+from skhybrid.experiments.run._store import _write_atomic
 from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
 
 __all__ = ["choose_and_refit", "expose_main_functions", "fit_model"]
@@ -440,7 +440,7 @@ def fit_model(name, model, ctx, deps, sink=None):
     search runs its candidates and folds on ``ctx.n_jobs`` workers.
 
     No test record is read here: the test records are simulated once every
-    choice is sealed (:func:`skhybrid.experiments._sealed.score_tests`).
+    choice is sealed (:func:`skhybrid.experiments.free_run._scoring.score_tests`).
 
     Parameters
     ----------

@@ -3,7 +3,7 @@
 A measured system, a user's or a built-in benchmark of :mod:`skhybrid.benchmarks`,
 is a :class:`~skhybrid.experiments.SystemSpec` run through the pipeline
 (:func:`~skhybrid.experiments.run_experiment`): its estimation records are loaded,
-its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on them only,
+its zoo (:mod:`skhybrid.experiments.free_run._family`) fits every model on them only,
 and its :class:`MeasuredResult` holds the fits, the selection and, once the
 selection is sealed, the test records' free runs.
 """
@@ -15,19 +15,19 @@ import numpy as np
 from joblib import delayed, effective_n_jobs
 
 from skhybrid.experiments._describe import spec_digest
-from skhybrid.experiments._measured_search import fit_model
-from skhybrid.experiments._measured_zoo import (
+from skhybrid.experiments._pickling import check_picklable
+from skhybrid.experiments._protocol import OneStepWindows
+from skhybrid.experiments._spec import SystemSpec, records_digest
+from skhybrid.experiments.free_run._family import (
     N_SPLITS,
     MeasuredContext,
     _rmse,
     epochs_at_most,
     zoo,
 )
-from skhybrid.experiments._pickling import check_picklable
-from skhybrid.experiments._progress import Tagged
-from skhybrid.experiments._protocol import OneStepWindows
-from skhybrid.experiments._spec import SystemSpec, records_digest
-from skhybrid.experiments._store import VALIDATION_RUNS
+from skhybrid.experiments.free_run._search import fit_model
+from skhybrid.experiments.run._progress import Tagged
+from skhybrid.experiments.run._store import VALIDATION_RUNS
 from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
 __all__ = ["MeasuredResult", "MeasuredSystem"]
@@ -261,7 +261,7 @@ class MeasuredSystem:
             A built-in benchmark's data folder; None fetches its files.
         searched : dict of str to dict or None, default=None
             Each model's search made at another seed, whose choice this seed
-            refits (see :func:`~skhybrid.experiments._sealed.run_seeds`).
+            refits (see :func:`~skhybrid.experiments.free_run._seeds.run_seeds`).
 
         Returns
         -------
@@ -309,7 +309,7 @@ class MeasuredSystem:
         return f"{self.name} seed {settings.seed}"
 
     def model_zoo(self, settings):
-        """The zoo's models (see :func:`skhybrid.experiments._measured_zoo.zoo`).
+        """The zoo's models (see :func:`skhybrid.experiments.free_run._family.zoo`).
 
         Parameters
         ----------
@@ -352,7 +352,7 @@ class MeasuredSystem:
         -------
         call : tuple
             A :func:`joblib.delayed` call of
-            :func:`~skhybrid.experiments._measured_search.fit_model`.
+            :func:`~skhybrid.experiments.free_run._search.fit_model`.
         """
         ctx = _context(result, searched=result.searched.get(name))
         ctx = replace(ctx, n_jobs=n_jobs, n_threads=n_threads)
@@ -373,7 +373,7 @@ class MeasuredSystem:
         -------
         n_epochs : int
             The epoch bar's total (see
-            :func:`~skhybrid.experiments._measured_zoo.epochs_at_most`).
+            :func:`~skhybrid.experiments.free_run._family.epochs_at_most`).
         """
         return epochs_at_most(models, _context(result), searched=set(result.searched))
 
@@ -467,7 +467,7 @@ class MeasuredResult:
     ----------
     tests : dict of str to tuple of ndarray
         ``{split: (u, y)}``: the test records, empty until the selection is
-        sealed (:func:`~skhybrid.experiments._sealed.score_tests`).
+        sealed (:func:`~skhybrid.experiments.free_run._scoring.score_tests`).
     predictions : dict of str to dict of str to ndarray
         ``predictions[split][model]``: the free run over each test record (NaN
         where it failed), in the data's units.
@@ -576,7 +576,7 @@ class MeasuredResult:
         """Nothing to score yet: the test records are scored once sealed.
 
         They are read and scored once the selection of every seed is sealed
-        (:func:`~skhybrid.experiments._sealed.score_tests`).
+        (:func:`~skhybrid.experiments.free_run._scoring.score_tests`).
         """
 
     def validation_blocks(self):

@@ -7,7 +7,7 @@ free runs are independent of each other, so they run side by side on the run's
 workers, each with this process's threads (torch's, the BLAS's and OpenMP's),
 so that a free run gives the same numbers side by side as alone. A stack's run
 is its members' runs averaged
-(:func:`~skhybrid.experiments._measured_stack.averaged_run`), so it is not
+(:func:`~skhybrid.experiments.free_run._stack.averaged_run`), so it is not
 simulated here.
 """
 
@@ -21,8 +21,8 @@ import joblib
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from skhybrid.experiments._measured_zoo import simulate_records
-from skhybrid.experiments._workers import worker_restarts_explained
+from skhybrid.experiments.free_run._family import simulate_records
+from skhybrid.experiments.run._workers import worker_restarts_explained
 from skhybrid.model_selection import StackedSimulation
 
 __all__ = ["simulate_tests"]

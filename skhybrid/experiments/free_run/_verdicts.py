@@ -44,7 +44,7 @@ def whiteness_verdict(pvalue, alpha=ALPHA):
 
     Examples
     --------
-    >>> from skhybrid.experiments._verdicts import whiteness_verdict
+    >>> from skhybrid.experiments.free_run._verdicts import whiteness_verdict
     >>> whiteness_verdict(0.4)
     'white at 5 %'
     >>> whiteness_verdict(0.0)
@@ -104,7 +104,7 @@ def coverage_verdict(coverage, level, tolerance=COVERAGE_TOLERANCE):
 
     Examples
     --------
-    >>> from skhybrid.experiments._verdicts import coverage_verdict
+    >>> from skhybrid.experiments.free_run._verdicts import coverage_verdict
     >>> coverage_verdict(0.908, 0.95)
     'the band covers 91 % of the samples against its 95 %: too narrow'
     """

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from skhybrid.experiments._claims import check_claims
-from skhybrid.experiments._html import table as _table
-from skhybrid.experiments._paper_stochastic import band_figure, stochastic_html
+from skhybrid.experiments.one_step._claims import check_claims
+from skhybrid.experiments.one_step._stochastic import band_figure, stochastic_html
+from skhybrid.experiments.run._html import table as _table
 
 __all__ = ["noise_description", "simulated_report", "simulated_settings"]
 

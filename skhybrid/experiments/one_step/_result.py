@@ -4,7 +4,7 @@ The paper's systems (section 6) are simulated: each model is fitted on the
 training split's windows and predicts one step ahead on every test split and on
 the validation split (:class:`ExperimentResult`). The pipeline,
 :func:`~skhybrid.experiments.run_experiment`, calls the system's hooks
-(:class:`~skhybrid.experiments._one_step.OneStepSystem`); this module holds
+(:class:`~skhybrid.experiments.one_step._system.OneStepSystem`); this module holds
 what they build.
 """
 
@@ -14,9 +14,13 @@ import warnings
 import numpy as np
 
 from skhybrid.diagnostics import ljung_box_test, rmse_db
-from skhybrid.experiments._fitting import interrupts_raise, n_epochs, physical_params
-from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT, paper_stochastic
-from skhybrid.experiments._simulated_report import simulated_report, simulated_settings
+from skhybrid.experiments.one_step._report import simulated_report, simulated_settings
+from skhybrid.experiments.one_step._stochastic import VALIDATION_SPLIT, paper_stochastic
+from skhybrid.experiments.run._fitting import (
+    interrupts_raise,
+    n_epochs,
+    physical_params,
+)
 from skhybrid.model_selection import in_convex_hull
 from skhybrid.preprocessing import newest_step
 
@@ -62,7 +66,7 @@ class ExperimentResult:
         the chosen model and its noise model come from them.
     stochastic : dict
         The chosen model's stochastic part (see
-        :func:`~skhybrid.experiments._paper_stochastic.paper_stochastic`).
+        :func:`~skhybrid.experiments.one_step._stochastic.paper_stochastic`).
     wall_time : float
         Seconds for the whole run.
     searched : dict

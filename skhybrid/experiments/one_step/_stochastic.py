@@ -14,13 +14,13 @@ each test split with the band's **coverage** (the share of test rows inside it).
 
 import numpy as np
 
-from skhybrid.experiments._html import p_value
 from skhybrid.experiments._stochastic import (
     BAND_LEVEL,
     band_coverage,
     fit_noise,
     residual_tests,
 )
+from skhybrid.experiments.run._html import p_value
 
 __all__ = [
     "VALIDATION_SPLIT",

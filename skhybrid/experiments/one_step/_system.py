@@ -20,11 +20,11 @@ from sklearn.base import clone
 
 from skhybrid.domain import LinearStateSpaceModel
 from skhybrid.experiments._describe import canonical, describe
-from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT
-from skhybrid.experiments._progress import attach_epoch_logger, epoch_budget
 from skhybrid.experiments._protocol import OneStepWindows
-from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shares
 from skhybrid.experiments._spec import SystemSpec
+from skhybrid.experiments.one_step._result import ExperimentResult, fit_one, hull_shares
+from skhybrid.experiments.one_step._stochastic import VALIDATION_SPLIT
+from skhybrid.experiments.run._progress import attach_epoch_logger, epoch_budget
 from skhybrid.hybrid import HybridBoostingRegressor, HybridEnsembleRegressor
 from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor
 
@@ -389,7 +389,7 @@ class OneStepSystem:
         Returns
         -------
         n_epochs : int
-            The sum of their :func:`~skhybrid.experiments._progress.epoch_budget`.
+            The sum of their :func:`~skhybrid.experiments.run._progress.epoch_budget`.
         """
         return sum(epoch_budget(model) for model in models.values())
 
@@ -420,7 +420,7 @@ class OneStepSystem:
         -------
         call : tuple
             A :func:`joblib.delayed` call of
-            :func:`~skhybrid.experiments._simulated.fit_one`.
+            :func:`~skhybrid.experiments.one_step._result.fit_one`.
         """
         if sink is not None:
             attach_epoch_logger(model, sink, name)

@@ -1,7 +1,7 @@
 """What ``skhybrid run`` prints of a finished run: :func:`summary_lines`."""
 
-from skhybrid.experiments._claims import check_claims
-from skhybrid.experiments._measured_report import spread_text
+from skhybrid.experiments.free_run._report import spread_text
+from skhybrid.experiments.one_step._claims import check_claims
 
 __all__ = ["summary_lines"]
 

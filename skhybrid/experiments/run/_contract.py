@@ -1,13 +1,13 @@
 """The runner's written contract: what it asks of a system and of its result.
 
-:func:`~skhybrid.experiments._runner.fit_zoos` and
-:class:`~skhybrid.experiments._run_plan.RunPlan` run any system that answers
+:func:`~skhybrid.experiments.run._runner.fit_zoos` and
+:class:`~skhybrid.experiments.run._plan.RunPlan` run any system that answers
 :class:`ZooSystem`'s hooks, and keep what it fits in a result that answers
 :class:`ZooResult`'s. Both protocols implement them: the one-step one
-(:class:`~skhybrid.experiments._one_step.OneStepSystem` and its
+(:class:`~skhybrid.experiments.one_step._system.OneStepSystem` and its
 :class:`~skhybrid.experiments.ExperimentResult`) and the free-run one
-(:class:`~skhybrid.experiments._measured_system.MeasuredSystem` and its
-:class:`~skhybrid.experiments._measured_system.MeasuredResult`). The runner
+(:class:`~skhybrid.experiments.free_run._system.MeasuredSystem` and its
+:class:`~skhybrid.experiments.free_run._system.MeasuredResult`). The runner
 calls these hooks and inspects nothing else (no ``getattr`` or ``hasattr``);
 ``tests/experiments/test_system_protocol.py`` checks both systems against them,
 signatures included.

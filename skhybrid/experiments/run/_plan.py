@@ -11,10 +11,11 @@ and refitted at each, its selection sealed before the test records are read.
 import numpy as np
 
 import skhybrid
-from skhybrid.experiments._provenance import provenance
-from skhybrid.experiments._runner import fit_seed
-from skhybrid.experiments._sealed import record_digests, run_seeds
 from skhybrid.experiments._settings import RunSettings, check_settings
+from skhybrid.experiments.free_run._seal import record_digests
+from skhybrid.experiments.free_run._seeds import run_seeds
+from skhybrid.experiments.run._provenance import provenance
+from skhybrid.experiments.run._runner import fit_seed
 
 __all__ = [
     "DEFAULT_SEEDS",

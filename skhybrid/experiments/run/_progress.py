@@ -17,7 +17,7 @@ evaluations through :func:`physics_hook` (with
 it begins and each fit of a fold as it ends. :class:`ProgressBars` reads them
 in the run's own process: bars on a terminal, lines in a log (never 15 s
 without one). What the lines say is written in
-:mod:`skhybrid.experiments._progress_lines`.
+:mod:`skhybrid.experiments.run._progress_lines`.
 """
 
 import json
@@ -27,7 +27,7 @@ import time
 import uuid
 from pathlib import Path
 
-from skhybrid.experiments._progress_lines import (
+from skhybrid.experiments.run._progress_lines import (
     SearchClock,
     count,
     duration,
@@ -315,7 +315,7 @@ class ProgressBars:
     - when the fits start, and when a model's search (or refit) begins;
     - when each fit of a fold, or a refit, ends: the model, its candidate,
       the fold and the seed, and once a fold has ended the time the model's
-      search has left (:class:`~skhybrid.experiments._progress_lines.SearchClock`);
+      search has left (:class:`~skhybrid.experiments.run._progress_lines.SearchClock`);
     - one per finished model;
     - and never ``log_interval`` seconds without a line: when nothing else was
       written, the latest news (a network's epoch of its most, with its

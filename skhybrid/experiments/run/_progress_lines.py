@@ -1,14 +1,14 @@
 """What the run's progress says: one line per event, and the time a search has left.
 
 The events come from the fits, through the run's sink
-(:mod:`skhybrid.experiments._progress`), as dictionaries:
+(:mod:`skhybrid.experiments.run._progress`), as dictionaries:
 
 - ``{"kind": "epoch", "name", "epoch", "max_epochs", "train_loss",
   "valid_loss"}``: a network finished an epoch
   (:class:`~skhybrid.neural._callbacks.EpochProgress`);
 - ``{"kind": "physics", "label", "nfev", "max_nfev", "n_records", "unit"}``: a
   physics fit evaluated its residuals
-  (:func:`~skhybrid.experiments._progress.physics_hook`);
+  (:func:`~skhybrid.experiments.run._progress.physics_hook`);
 - ``{"kind": "search", "model", "n_candidates", "n_folds", "n_workers",
   "searched_at"}``: a model's search (or refit) begins;
 - ``{"kind": "fit", "state": "start" | "done" | "failed", "model", "where",

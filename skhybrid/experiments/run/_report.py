@@ -3,8 +3,8 @@
 Each system's result draws its own figures and writes its own section
 (``result.report(out_dir)``, its settings table ``result.report_settings()``
 and its title ``result.report_title``): a simulated system's in
-:mod:`skhybrid.experiments._simulated_report`, a measured one's in
-:mod:`skhybrid.experiments._measured_report`. This module assembles the page.
+:mod:`skhybrid.experiments.one_step._report`, a measured one's in
+:mod:`skhybrid.experiments.free_run._report`. This module assembles the page.
 """
 
 import csv
@@ -13,7 +13,7 @@ import json
 import platform
 from pathlib import Path
 
-from skhybrid.experiments._html import table as _table
+from skhybrid.experiments.run._html import table as _table
 
 __all__ = ["CSS", "write_report"]
 

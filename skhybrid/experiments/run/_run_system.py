@@ -1,7 +1,7 @@
 """Run a system into a run folder: run_system, run_measured and load_fitted.
 
 :func:`run_system` takes a spec of either protocol and runs its
-:class:`~skhybrid.experiments._run_plan.RunPlan` in the folder's transaction,
+:class:`~skhybrid.experiments.run._plan.RunPlan` in the folder's transaction,
 as ``skhybrid run`` does; the rest of this note is the free-run protocol's.
 
 A measured system, a user's or a built-in benchmark, is a
@@ -12,13 +12,13 @@ folder with its lock and resume, joblib or Dask, progress, :func:`write_report`)
 - its estimation records are loaded (a built-in benchmark's from the folder the
   user names with ``--data``, or fetched), with the official split and
   initialisation window of the ``nonlinear-benchmarks`` loader (v1.0.1);
-- its zoo (:mod:`skhybrid.experiments._measured_zoo`) fits every model on the
+- its zoo (:mod:`skhybrid.experiments.free_run._family`) fits every model on the
   estimation records only, choosing every candidate (window and segment
   lengths, the state-space hybrid's horizon, the model quoted) on validation
   blocked folds of the records (:class:`~skhybrid.model_selection.SimulationSearchCV`),
   never on a test record;
 - the search runs at the first seed and each choice is refitted at every seed;
-  every seed's selection is sealed (:mod:`skhybrid.experiments._sealed`), then
+  every seed's selection is sealed (:mod:`skhybrid.experiments.free_run._seal`), then
   each model is simulated in free run on each test record from the first
   ``n_init`` measured outputs and scored by ``RMSE(y[n_init:],
   y_model[n_init:])`` in the official units, beside the published figures.
@@ -30,15 +30,15 @@ import shlex
 import numpy as np
 
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
-from skhybrid.experiments._run_plan import (
+from skhybrid.experiments._spec import SystemSpec
+from skhybrid.experiments.run._plan import (
     DEFAULT_SEEDS,
     RunPlan,
     check_seeds,
     measured_identity,
 )
-from skhybrid.experiments._spec import SystemSpec
-from skhybrid.experiments._store import RunFolder
-from skhybrid.experiments._transaction import RunTransaction
+from skhybrid.experiments.run._store import RunFolder
+from skhybrid.experiments.run._transaction import RunTransaction
 from skhybrid.hybrid import TransformedInputSimulator
 
 __all__ = [

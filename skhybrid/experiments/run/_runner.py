@@ -19,12 +19,12 @@ import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from joblib.parallel import get_active_backend
 
-from skhybrid.experiments._progress import ProgressBars
 from skhybrid.experiments._registry import get_system
 from skhybrid.experiments._settings import RunSettings, check_settings
-from skhybrid.experiments._simulated import ExperimentResult
-from skhybrid.experiments._store import VALIDATION_RUNS
-from skhybrid.experiments._workers import worker_restarts_explained
+from skhybrid.experiments.one_step._result import ExperimentResult
+from skhybrid.experiments.run._progress import ProgressBars
+from skhybrid.experiments.run._store import VALIDATION_RUNS
+from skhybrid.experiments.run._workers import worker_restarts_explained
 
 __all__ = ["ExperimentResult", "fit_seed", "fit_zoos", "run_experiment"]
 
@@ -166,7 +166,7 @@ def run_experiment(
     searched : dict of str to dict or None, default=None
         A measured system's searches made at another seed, by model:
         ``{"selection": ..., "runs": ..., "seed": ...}`` (see
-        :func:`~skhybrid.experiments._sealed.run_seeds`). Each model then refits
+        :func:`~skhybrid.experiments.free_run._seeds.run_seeds`). Each model then refits
         the candidate its search chose at this seed instead of searching again.
 
     Returns
@@ -317,7 +317,7 @@ def fit_zoos(
     ----------
     system : ZooSystem
         The system, resolved once for the run (see
-        :mod:`~skhybrid.experiments._system_protocol`).
+        :mod:`~skhybrid.experiments.run._contract`).
     settings : list of RunSettings
         Each seed's settings.
     n_jobs, progress, folder, data, searched

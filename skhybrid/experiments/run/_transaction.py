@@ -8,7 +8,7 @@ is released however it ends, and a folder the run made but never wrote to is
 removed.
 """
 
-from skhybrid.experiments._store import RunFolder
+from skhybrid.experiments.run._store import RunFolder
 
 __all__ = ["RunTransaction"]
 
@@ -159,7 +159,7 @@ class RunTransaction:
         paths : dict of str to Path
             The report's files (:func:`~skhybrid.experiments.write_report`).
         """
-        from skhybrid.experiments._report import write_report
+        from skhybrid.experiments.run._report import write_report
 
         paths = write_report(
             results, self.folder.path, command=command, wall_time=wall_time

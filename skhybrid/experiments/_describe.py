@@ -6,13 +6,12 @@ the same spec gives the same hash in every process.
 """
 
 import functools
-import hashlib
 import json
 import re
 
 import numpy as np
 
-__all__ = ["canonical", "describe", "qualified_name", "spec_digest", "spec_fields"]
+__all__ = ["canonical", "describe", "qualified_name"]
 
 
 def qualified_name(obj):
@@ -59,55 +58,3 @@ def describe(value):
 def canonical(value):
     """``value`` as canonical JSON: sorted keys, no spaces."""
     return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
-
-
-def spec_fields(spec):
-    """What a spec says of its system and candidates, without its records.
-
-    Parameters
-    ----------
-    spec : SystemSpec
-        The system.
-
-    Returns
-    -------
-    fields : dict
-        Name, ``n_init``, the physics and its inputs, the candidates and the
-        notes, described without memory addresses.
-    """
-    return {
-        "name": spec.name,
-        "n_init": spec.n_init,
-        "physics": describe(spec.physics),
-        "physics_inputs": describe(spec.physics_inputs),
-        "segments": describe(spec.segments),
-        "hybrids": describe(spec.hybrids),
-        "hybrid_records": spec.hybrid_records,
-        "notes": spec.notes,
-    }
-
-
-def spec_digest(spec):
-    """SHA-256 of what a spec says before its records are read.
-
-    The physics, its inputs, the candidates, ``n_init``, ``dt`` and the notes,
-    described without memory addresses (:func:`spec_fields` with the sample
-    period and the physics' starts): the same spec gives the same digest in
-    every session.
-
-    Parameters
-    ----------
-    spec : SystemSpec
-        The system.
-
-    Returns
-    -------
-    digest : str
-        Hex digest.
-    """
-    fields = {
-        **spec_fields(spec),
-        "dt": spec.dt,
-        "physics_starts": describe(spec.physics_starts),
-    }
-    return hashlib.sha256(canonical(fields).encode()).hexdigest()

@@ -1,4 +1,4 @@
-"""Whether a spec's physics can be kept in a run folder, and how a fit is cached.
+"""How a fit is cached in the run folder, its user's functions by name.
 
 A run keeps its deterministic fits in the run folder's cache, written in
 whichever process made the fit (the run's own, or a worker of a search) and
@@ -16,30 +16,7 @@ import pickle
 import sys
 import types
 
-__all__ = ["check_picklable", "dump_fit", "load_fit", "main_objects"]
-
-
-def check_picklable(spec):
-    """Refuse, before any fit, a physics the run folder cannot store.
-
-    The run folder stores fitted models with cloudpickle
-    (:meth:`~skhybrid.experiments.run._store.RunFolder.save_model`): functions
-    defined in ``__main__`` (a script, a notebook cell), lambdas and closures
-    are stored by value and load in a new session. What cloudpickle cannot
-    store either (an open file, a lock, a generator) is refused here.
-    """
-    import cloudpickle
-
-    for name in ("physics", "physics_inputs"):
-        try:
-            cloudpickle.dumps(getattr(spec, name), protocol=pickle.HIGHEST_PROTOCOL)
-        except (pickle.PicklingError, TypeError, AttributeError, ValueError) as exc:
-            raise TypeError(
-                f"spec.{name} cannot be pickled ({type(exc).__name__}: {exc}), so "
-                "its fitted models cannot be kept in the run folder: keep only "
-                "numbers, arrays and functions in it (no open file, lock or "
-                "generator)."
-            ) from None
+__all__ = ["dump_fit", "load_fit", "main_objects"]
 
 
 def _main_name(obj):

@@ -16,7 +16,6 @@ __all__ = [
     "OneStepSizes",
     "OneStepWindows",
     "check_one_step_spec",
-    "refuse_one_step",
 ]
 
 #: Where a simulator's noise enters.
@@ -259,16 +258,6 @@ class OneStepWindows:
             ``quick_sizes`` or ``sizes``.
         """
         return self.quick_sizes if quick else self.sizes
-
-
-def refuse_one_step(spec, method):
-    """Raise where ``spec`` is of the one-step protocol: it has no records to read."""
-    if isinstance(spec.protocol, OneStepWindows):
-        raise ValueError(  # noqa: TRY004 - the spec's protocol, not a type error
-            f"{method} reads a free-run spec's records; {spec.name!r} has "
-            "protocol=OneStepWindows, whose records and tests are simulators "
-            "that its run calls at each seed."
-        )
 
 
 #: What only the free-run protocol reads (a one-step spec leaves them unset).

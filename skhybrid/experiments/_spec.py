@@ -1,11 +1,12 @@
-"""A measured system described once: :class:`SystemSpec`.
+"""A system described once: :class:`SystemSpec`, of either protocol.
 
 A user's machine and the built-in benchmarks take the same path: a spec names
 the estimation records, the sample period, the initialisation window, the
 physics and (optionally) the test records; :func:`~skhybrid.experiments.run_system`
 fits the default candidate family on it, chooses by blocked cross-validation of
 the estimation records, seals the selection and only then simulates the test
-records.
+records. A spec of the paper's one-step protocol (``protocol=OneStepWindows(...)``,
+:mod:`~skhybrid.experiments._protocol`) names simulators instead.
 """
 
 import difflib
@@ -21,7 +22,6 @@ from skhybrid.domain import StateSpaceModel
 from skhybrid.experiments._protocol import (
     OneStepWindows,
     check_one_step_spec,
-    refuse_one_step,
 )
 from skhybrid.hybrid import MIN_SUBSEQUENCES, StateSpaceHybridRegressor
 from skhybrid.utils._validation import first_not_finite
@@ -644,6 +644,15 @@ class SystemSpec:
             self.estimation_records()
 
     # -- records ----------------------------------------------------------------
+    def _refuse_one_step(self, method):
+        """Raise where this spec is of the one-step protocol: no records to read."""
+        if isinstance(self.protocol, OneStepWindows):
+            raise ValueError(  # noqa: TRY004 - the spec's protocol, not a type error
+                f"{method} reads a free-run spec's records; {self.name!r} has "
+                "protocol=OneStepWindows, whose records and tests are simulators "
+                "that its run calls at each seed."
+            )
+
     def estimation_records(self):
         """The estimation records, checked: ``(U, Y)`` lists of 2-D arrays.
 
@@ -659,7 +668,7 @@ class SystemSpec:
             tail, no sample period (``dt``), or a test record given as data
             that does not fit them (:meth:`test_records`).
         """
-        refuse_one_step(self, "estimation_records")
+        self._refuse_one_step("estimation_records")
         records = self.records() if callable(self.records) else self.records
         U, Y, dts = as_records(
             records, inputs=self.inputs, outputs=self.outputs, name="records"
@@ -744,7 +753,7 @@ class SystemSpec:
             ``n_init`` samples, or whose columns differ from the estimation
             records'; the message names it.
         """
-        refuse_one_step(self, "test_records")
+        self._refuse_one_step("test_records")
         tests = self.tests() if callable(self.tests) else self.tests
         if tests is None:
             return {}

@@ -6,20 +6,19 @@ chosen model of each seed, with the SHA-256 of all of it. Only then are the
 test records read (:func:`~skhybrid.experiments.free_run._seeds.run_seeds`).
 The report prints the hash beside the test figures, so a reader can check that
 the figures come from the selection the file records, made before the test was
-seen. :func:`record_digests` reads and checks the estimation records before
-the run folder changes.
+seen.
 """
 
 import hashlib
 import json
 
-from skhybrid.experiments._describe import canonical, spec_fields
-from skhybrid.experiments._settings import RunSettings
+from skhybrid.experiments._describe import canonical
 from skhybrid.experiments._spec import records_digest
+from skhybrid.experiments.free_run._identity import spec_fields
 from skhybrid.experiments.run._provenance import provenance
 from skhybrid.experiments.run._store import SELECTION_FILE, _write_atomic
 
-__all__ = ["describe_spec", "record_digests", "seal"]
+__all__ = ["describe_spec", "seal"]
 
 
 def describe_spec(spec, U, Y=None):
@@ -80,32 +79,3 @@ def seal(results, folder_path):
         )
         _write_atomic(folder_path / SELECTION_FILE, lambda p: p.write_text(text))
     return sealed
-
-
-def record_digests(system, seeds, *, quick=False, data=None):
-    """Read and check the estimation records; their SHA-256 under each seed's name.
-
-    A run calls it before its folder changes: a bad record (or a test record
-    given as data that does not fit them) is refused here, and a run carried on
-    must find the records its finished models were fitted on
-    (:meth:`~skhybrid.experiments.run._store.RunFolder.start`).
-
-    Parameters
-    ----------
-    system : MeasuredSystem
-        The system.
-    seeds : list of int
-        The run's seeds.
-    quick : bool, default=False
-        A built-in benchmark's quick form.
-    data : str or Path or None, default=None
-        A built-in benchmark's data folder; None fetches its files.
-
-    Returns
-    -------
-    digests : dict of str to str
-        ``{name of a seed's models in the folder: SHA-256 of the records}``.
-    """
-    bound = system.bind(data, quick)
-    digest = records_digest(*bound.spec.estimation_records())
-    return {bound.store_key(RunSettings(seed=seed)): digest for seed in seeds}

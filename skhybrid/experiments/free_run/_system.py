@@ -9,13 +9,12 @@ selection is sealed, the test records' free runs.
 """
 
 import json
+import pickle
 from dataclasses import replace
 
 import numpy as np
 from joblib import delayed, effective_n_jobs
 
-from skhybrid.experiments._describe import spec_digest
-from skhybrid.experiments._pickling import check_picklable
 from skhybrid.experiments._protocol import OneStepWindows
 from skhybrid.experiments._spec import SystemSpec, records_digest
 from skhybrid.experiments.free_run._family import (
@@ -25,16 +24,40 @@ from skhybrid.experiments.free_run._family import (
     epochs_at_most,
     zoo,
 )
+from skhybrid.experiments.free_run._identity import spec_digest
 from skhybrid.experiments.free_run._search import fit_model
 from skhybrid.experiments.run._progress import Tagged
 from skhybrid.experiments.run._store import VALIDATION_RUNS
 from skhybrid.model_selection import RecordBlockSplit, take_pieces
 
-__all__ = ["MeasuredResult", "MeasuredSystem"]
+__all__ = ["MeasuredResult", "MeasuredSystem", "check_picklable"]
 
 
 #: Most residual evaluations of a physics' fit in a quick run.
 QUICK_NFEV = 20
+
+
+def check_picklable(spec):
+    """Refuse, before any fit, a physics the run folder cannot store.
+
+    The run folder stores fitted models with cloudpickle
+    (:meth:`~skhybrid.experiments.run._store.RunFolder.save_model`): functions
+    defined in ``__main__`` (a script, a notebook cell), lambdas and closures
+    are stored by value and load in a new session. What cloudpickle cannot
+    store either (an open file, a lock, a generator) is refused here.
+    """
+    import cloudpickle
+
+    for name in ("physics", "physics_inputs"):
+        try:
+            cloudpickle.dumps(getattr(spec, name), protocol=pickle.HIGHEST_PROTOCOL)
+        except (pickle.PicklingError, TypeError, AttributeError, ValueError) as exc:
+            raise TypeError(
+                f"spec.{name} cannot be pickled ({type(exc).__name__}: {exc}), so "
+                "its fitted models cannot be kept in the run folder: keep only "
+                "numbers, arrays and functions in it (no open file, lock or "
+                "generator)."
+            ) from None
 
 
 class MeasuredSystem:
@@ -225,7 +248,7 @@ class MeasuredSystem:
         Returns
         -------
         digest : str
-            Hex digest (:func:`~skhybrid.experiments._describe.spec_digest`).
+            Hex digest (:func:`~skhybrid.experiments.free_run._identity.spec_digest`).
         """
         return spec_digest(self.spec)
 

@@ -12,9 +12,8 @@ import numpy as np
 
 import skhybrid
 from skhybrid.experiments._settings import RunSettings, check_settings
-from skhybrid.experiments.free_run._seal import record_digests
+from skhybrid.experiments.free_run._identity import measured_identity, record_digests
 from skhybrid.experiments.free_run._seeds import run_seeds
-from skhybrid.experiments.run._provenance import provenance
 from skhybrid.experiments.run._runner import fit_seed
 
 __all__ = [
@@ -22,7 +21,6 @@ __all__ = [
     "MAX_SEED",
     "RunPlan",
     "check_seeds",
-    "measured_identity",
 ]
 
 #: The seeds of a measured run: the first searches, each refits the choices.
@@ -69,44 +67,6 @@ def check_seeds(seeds):
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds must differ; got seeds={seeds!r}.")
     return [int(s) for s in seeds]
-
-
-def measured_identity(system, quick, seeds, *, digest=True):
-    """What makes two measured runs the same (a resumed run must match it).
-
-    Parameters
-    ----------
-    system : MeasuredSystem
-        The system, bound to its spec (:meth:`~MeasuredSystem.bind`).
-    quick : bool
-        Shorter fits.
-    seeds : list of int
-        The seeds.
-    digest : bool, default=True
-        Whether to take the spec's digest (False: ``"spec"`` is None, for a
-        system not yet bound).
-
-    Returns
-    -------
-    identity : dict
-        The version and commit, the CPU kernels, the system (its spec's
-        digest: a built-in benchmark named on the command line and its spec
-        run from Python are one run), ``quick``, the seeds and the settings:
-        a resume never reuses models fitted under another commit, other
-        kernels or another spec.
-    """
-    settings = RunSettings(quick=bool(quick), seed=seeds[0])
-    code = provenance()
-    return {
-        "skhybrid": skhybrid.__version__,
-        "commit": code["commit"],
-        "kernels": code["kernels"],
-        "systems": [system.name],
-        "spec": system.digest() if digest else None,
-        "quick": bool(quick),
-        "seeds": list(seeds),
-        "settings": settings.to_dict(),
-    }
 
 
 class RunPlan:

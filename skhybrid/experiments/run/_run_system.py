@@ -31,12 +31,8 @@ import numpy as np
 
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
 from skhybrid.experiments._spec import SystemSpec
-from skhybrid.experiments.run._plan import (
-    DEFAULT_SEEDS,
-    RunPlan,
-    check_seeds,
-    measured_identity,
-)
+from skhybrid.experiments.free_run._identity import measured_identity
+from skhybrid.experiments.run._plan import DEFAULT_SEEDS, RunPlan, check_seeds
 from skhybrid.experiments.run._store import RunFolder
 from skhybrid.experiments.run._transaction import RunTransaction
 from skhybrid.hybrid import TransformedInputSimulator

@@ -70,7 +70,7 @@ def test_a_guide_stating_the_family_names_every_model(where):
     assert not missing, (
         f"{where[0]}, section {where[1]!r}, states the measured family without "
         f"{missing}: name each model in backticks, as skhybrid/experiments/"
-        "_measured_zoo.py defines the family."
+        "free_run/_family.py defines the family."
     )
     assert "no stacking" not in text.lower()
 

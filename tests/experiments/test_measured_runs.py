@@ -25,15 +25,13 @@ from skhybrid import cli
 from skhybrid.benchmarks.emps import PUBLISHED as EMPS_PUBLISHED
 from skhybrid.benchmarks.emps import physics as emps_physics
 from skhybrid.cli import main
-from skhybrid.experiments import (
-    SystemSpec,
-    _measured_search,
-    _measured_system,
-    _measured_zoo,
-    _runner,
-)
+from skhybrid.experiments import SystemSpec
 from skhybrid.experiments._registry import MEASURED_SYSTEMS
+from skhybrid.experiments.free_run import _family as _measured_zoo
+from skhybrid.experiments.free_run import _search as _measured_search
+from skhybrid.experiments.free_run import _system as _measured_system
 from skhybrid.experiments.free_run._system import MeasuredSystem
+from skhybrid.experiments.run import _runner
 
 REPO = Path(__file__).resolve().parents[2]
 TINY = ["dense NARX", "linear ARX", "physics", "physics + linear"]

@@ -18,14 +18,9 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
-from skhybrid.experiments import (
-    RunSettings,
-    SystemSpec,
-    _measured_search,
-    _measured_zoo,
-    load_fitted,
-    run_system,
-)
+from skhybrid.experiments import RunSettings, SystemSpec, load_fitted, run_system
+from skhybrid.experiments.free_run import _family as _measured_zoo
+from skhybrid.experiments.free_run import _search as _measured_search
 
 MACHINE = textwrap.dedent(
     '''

@@ -23,6 +23,7 @@ from skhybrid.experiments._describe import canonical, describe
 from skhybrid.experiments._paper_stochastic import VALIDATION_SPLIT
 from skhybrid.experiments._progress import attach_epoch_logger, epoch_budget
 from skhybrid.experiments._protocol import OneStepWindows
+from skhybrid.experiments._settings import on_device
 from skhybrid.experiments._simulated import ExperimentResult, fit_one, hull_shares
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.hybrid import HybridBoostingRegressor, HybridEnsembleRegressor
@@ -549,4 +550,4 @@ def model_zoo(system, settings):
         batch_size=s.batch_size,
         random_state=seed + 7,
     )
-    return zoo
+    return {name: on_device(model, settings.device) for name, model in zoo.items()}

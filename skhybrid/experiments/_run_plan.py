@@ -70,7 +70,7 @@ def check_seeds(seeds):
     return [int(s) for s in seeds]
 
 
-def measured_identity(system, quick, seeds, *, digest=True):
+def measured_identity(system, quick, seeds, *, digest=True, device="cpu"):
     """What makes two measured runs the same (a resumed run must match it).
 
     Parameters
@@ -84,6 +84,8 @@ def measured_identity(system, quick, seeds, *, digest=True):
     digest : bool, default=True
         Whether to take the spec's digest (False: ``"spec"`` is None, for a
         system not yet bound).
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the networks train (part of the settings where not the CPU).
 
     Returns
     -------
@@ -94,7 +96,7 @@ def measured_identity(system, quick, seeds, *, digest=True):
         a resume never reuses models fitted under another commit, other
         kernels or another spec.
     """
-    settings = RunSettings(quick=bool(quick), seed=seeds[0])
+    settings = RunSettings(quick=bool(quick), seed=seeds[0], device=device)
     code = provenance()
     return {
         "skhybrid": skhybrid.__version__,
@@ -124,6 +126,8 @@ class RunPlan:
         A built-in measured benchmark's files.
     noise_type : {"measurement", "process"} or None, default=None
         Where a one-step system's simulators put their noise (None: its own).
+    device : {"cpu", "cuda"}, default="cpu"
+        Where every network of the run trains (see :class:`RunSettings`).
 
     Raises
     ------
@@ -133,7 +137,16 @@ class RunPlan:
         range; ``noise_type`` for a free-run system.
     """
 
-    def __init__(self, systems, *, seeds=None, quick=False, data=None, noise_type=None):
+    def __init__(
+        self,
+        systems,
+        *,
+        seeds=None,
+        quick=False,
+        data=None,
+        noise_type=None,
+        device="cpu",
+    ):
         systems = list(systems)
         self.measured = systems[0].measured
         if any(system.measured != self.measured for system in systems):
@@ -155,6 +168,7 @@ class RunPlan:
         self.quick = bool(quick)
         self.data = data
         self.noise_type = noise_type
+        self.device = device
         self._bound = None
         for system in systems:
             check_settings(system, self.settings(self.seeds[0]))
@@ -188,9 +202,11 @@ class RunPlan:
         Returns
         -------
         settings : RunSettings
-            The run's ``quick`` and noise type at ``seed``.
+            The run's ``quick``, noise type and device at ``seed``.
         """
-        return RunSettings(quick=self.quick, seed=seed, noise_type=self.noise_type)
+        return RunSettings(
+            quick=self.quick, seed=seed, noise_type=self.noise_type, device=self.device
+        )
 
     @property
     def identity(self):
@@ -215,7 +231,11 @@ class RunPlan:
         """
         if self.measured:
             identity = measured_identity(
-                self.systems[0], self.quick, self.seeds, digest=False
+                self.systems[0],
+                self.quick,
+                self.seeds,
+                digest=False,
+                device=self.device,
             )
             del identity["spec"]
             return identity
@@ -276,6 +296,7 @@ class RunPlan:
                 progress=progress,
                 folder=folder,
                 data=self.data,
+                device=self.device,
             )
             return [run]
         return [

@@ -671,6 +671,7 @@ def run_seeds(
     progress=False,
     folder=None,
     data=None,
+    device="cpu",
 ):
     """Select at every seed, seal, then read and score the test records.
 
@@ -711,7 +712,7 @@ def run_seeds(
     seeds = list(seeds)
     first = fit_seed(
         system,
-        RunSettings(quick=bool(quick), seed=seeds[0]),
+        RunSettings(quick=bool(quick), seed=seeds[0], device=device),
         n_jobs=n_jobs,
         progress=progress,
         folder=folder,
@@ -723,7 +724,10 @@ def run_seeds(
         refit_start = time.perf_counter()
         results += fit_zoos(
             first.system,
-            [RunSettings(quick=bool(quick), seed=seed) for seed in seeds[1:]],
+            [
+                RunSettings(quick=bool(quick), seed=seed, device=device)
+                for seed in seeds[1:]
+            ],
             n_jobs=n_jobs,
             progress=progress,
             folder=folder,

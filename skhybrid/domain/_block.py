@@ -19,6 +19,11 @@ from skhybrid.simulation import (
     fit_initial_states,
     pack_trajectories,
 )
+from skhybrid.utils._docstrings import (
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    fill_doc,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import Interval, _fit_context
@@ -142,6 +147,9 @@ def _sensitivities(a1, b1, a2, b2, coef, knots, u, free_b2):
     return y, np.concatenate(columns, axis=1)
 
 
+@fill_doc(
+    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+)
 class WienerHammersteinModel(
     TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
 ):
@@ -655,9 +663,7 @@ class WienerHammersteinModel(
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole record, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, 1), (n_trajectories, n_init, 1) \
 or list of 2-D arrays
             Measured outputs of each record's first ``n_init`` samples.
@@ -667,12 +673,7 @@ or list of 2-D arrays
             died out by the window's end). ``"least_squares"``: they start from
             the initial states whose run through the window matches its
             measured outputs best (:func:`~skhybrid.simulation.fit_initial_states`).
-        n_samples : None
-            Must be None: the model has no noise model.
-        random_state : None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: the model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

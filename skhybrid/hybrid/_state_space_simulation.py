@@ -17,9 +17,17 @@ from skhybrid.simulation import (
     pack_trajectories,
     stack_trajectories,
 )
+from skhybrid.utils._docstrings import (
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    fill_doc,
+)
 from skhybrid.utils._simulate_checks import check_simulate_options
 
 
+@fill_doc(
+    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+)
 class _SimulationMixin:
     """``simulate``, ``simulate_from_state`` and ``estimate_initial_state``."""
 
@@ -43,9 +51,7 @@ class _SimulationMixin:
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole experiment, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
             Measured outputs of the first time steps (at least ``n_init``), all
@@ -60,12 +66,7 @@ n_init, n_outputs) or list of 2-D arrays
             trajectory), and the simulation continues from that run; with
             ``initial`` well longer than ``n_init`` this averages the
             measurement noise out of the start.
-        n_samples : int or None, default=None
-            Must be None: this model has no noise model.
-        random_state : int, RandomState instance or None, default=None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: this model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

@@ -22,6 +22,7 @@ from skhybrid.simulation import (
 from skhybrid.utils._docstrings import (
     NO_NOISE_SIMULATE_OPTIONS,
     RECORD_INPUTS,
+    RECORDS_X,
     fill_doc,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -148,7 +149,9 @@ def _sensitivities(a1, b1, a2, b2, coef, knots, u, free_b2):
 
 
 @fill_doc(
-    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
 )
 class WienerHammersteinModel(
     TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
@@ -483,8 +486,7 @@ class WienerHammersteinModel(
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record.
 

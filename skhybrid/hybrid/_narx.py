@@ -13,6 +13,7 @@ from skhybrid.simulation import check_trajectories, simulate
 from skhybrid.utils._docstrings import (
     NO_NOISE_SIMULATE_OPTIONS,
     RECORD_INPUTS,
+    RECORDS_X,
     fill_doc,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -25,7 +26,9 @@ __all__ = ["NARXSimulator"]
 
 
 @fill_doc(
-    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
 )
 class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
     """A one-step NARX regressor on windows of past outputs and inputs, in free run.
@@ -111,8 +114,7 @@ class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, n_outputs), or list \
 of them
             The measured outputs of each record, aligned with ``X``; windows

@@ -17,6 +17,7 @@ from skhybrid.simulation import (
 from skhybrid.utils._docstrings import (
     NO_NOISE_SIMULATE_OPTIONS,
     RECORD_INPUTS,
+    RECORDS_X,
     fill_doc,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
@@ -54,7 +55,9 @@ def _windows(columns, n):
 
 
 @fill_doc(
-    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
 )
 class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
     """A fitted physics in free run plus a static map of its own recent window.
@@ -196,8 +199,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record, aligned with ``X``; the physics
             starts from its first ``n_init`` samples, and each record needs at
@@ -231,8 +233,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record.
         physics_outputs : array-like of shape (n_times,) or (n_times, 1), or \

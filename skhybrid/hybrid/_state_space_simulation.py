@@ -18,6 +18,7 @@ from skhybrid.simulation import (
     stack_trajectories,
 )
 from skhybrid.utils._docstrings import (
+    INITIAL_WINDOW_INPUTS,
     NO_NOISE_SIMULATE_OPTIONS,
     RECORD_INPUTS,
     fill_doc,
@@ -26,7 +27,9 @@ from skhybrid.utils._simulate_checks import check_simulate_options
 
 
 @fill_doc(
-    record_inputs=RECORD_INPUTS, no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS
+    initial_window_inputs=INITIAL_WINDOW_INPUTS,
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
 )
 class _SimulationMixin:
     """``simulate``, ``simulate_from_state`` and ``estimate_initial_state``."""
@@ -142,9 +145,7 @@ n_init, n_outputs) or list of 2-D arrays
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs over (at least) the initialisation window of each record.
+        %(initial_window_inputs)s
         outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
 n_outputs) or list of 2-D arrays
             Measured outputs of the initialisation window.

@@ -12,7 +12,9 @@ import re
 import textwrap
 
 __all__ = [
+    "INITIAL_WINDOW_INPUTS",
     "NO_NOISE_SIMULATE_OPTIONS",
+    "RECORDS_OUTPUTS",
     "RECORDS_X",
     "RECORD_INPUTS",
     "fill_doc",
@@ -35,6 +37,18 @@ RECORD_INPUTS = """\
 inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
 n_times, n_inputs) or list of 2-D arrays
     Inputs over the whole record, initial window included."""
+
+#: ``fit_simulation``'s measured ``outputs``, in every container form of records.
+RECORDS_OUTPUTS = """\
+outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
+n_outputs) or list of (n_times_i, n_outputs) arrays
+    Measured outputs of each record, aligned with ``inputs``."""
+
+#: The ``inputs`` from which an initial state is estimated.
+INITIAL_WINDOW_INPUTS = """\
+inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+    Inputs over (at least) the initialisation window of each record."""
 
 #: The ``X`` of a whole-record model's ``fit``: one record or several.
 RECORDS_X = """\

@@ -17,6 +17,7 @@ __all__ = [
     "RECORDS_OUTPUTS",
     "RECORDS_X",
     "RECORD_INPUTS",
+    "RECORD_INPUTS_INITIAL",
     "fill_doc",
     "fill_docstring",
 ]
@@ -37,6 +38,13 @@ RECORD_INPUTS = """\
 inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
 n_times, n_inputs) or list of 2-D arrays
     Inputs over the whole record, initial window included."""
+
+#: ``simulate``'s ``inputs`` and ``initial`` where one record is simulated.
+RECORD_INPUTS_INITIAL = """\
+inputs : array-like of shape (n_times, n_inputs)
+    Inputs over the whole record, initial window included.
+initial : array-like of shape (n_init, n_outputs)
+    Measured outputs of the first samples."""
 
 #: ``fit_simulation``'s measured ``outputs``, in every container form of records.
 RECORDS_OUTPUTS = """\

@@ -18,6 +18,7 @@ from skhybrid.domain._state_space_batch import SetRows, simulation_key
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.simulation import check_trajectories
+from skhybrid.utils._docstrings import RECORDS_OUTPUTS, fill_doc
 from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._sklearn_compat import _fit_context
 from skhybrid.utils._transaction import transactional
@@ -42,6 +43,7 @@ def _penalised(r, Y):
     return np.where(diverged, bound, r), bound
 
 
+@fill_doc(records_outputs=RECORDS_OUTPUTS)
 class _SimulationFitMixin:
     """The simulation-error fit of a StateSpaceModel and where a fit starts."""
 
@@ -62,9 +64,7 @@ class _SimulationFitMixin:
 n_inputs) or list of (n_times_i, n_inputs) arrays
             Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
             ``t + 1``. Zero columns for an autonomous system.
-        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
-n_outputs) or list of (n_times_i, n_outputs) arrays
-            Measured outputs of each record, aligned with ``inputs``.
+        %(records_outputs)s
 
         Returns
         -------

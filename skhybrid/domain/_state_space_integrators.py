@@ -7,13 +7,11 @@ records. A mixin of :class:`~skhybrid.domain.StateSpaceModel`, which holds the
 settings they read (``time``, ``dt``, ``method``, ``n_substeps``, ...).
 """
 
-import inspect
-
 import numpy as np
 from scipy.integrate import solve_ivp
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.utils._array_api import get_namespace, is_torch
+from skhybrid.utils._array_api import get_namespace, is_torch, takes_xp
 
 
 class _IntegratorMixin:
@@ -22,14 +20,7 @@ class _IntegratorMixin:
     # -- the physics ---------------------------------------------------------------
     @staticmethod
     def _takes_xp(func):
-        try:
-            signature = inspect.signature(func)
-        except (TypeError, ValueError):
-            return True
-        return "xp" in signature.parameters or any(
-            p.kind is inspect.Parameter.VAR_KEYWORD
-            for p in signature.parameters.values()
-        )
+        return takes_xp(func, default=True)
 
     def _rhs_fn(self, params, xp):
         """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""

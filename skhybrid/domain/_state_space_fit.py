@@ -333,11 +333,15 @@ n_inputs) or list of (n_times_i, n_inputs) arrays
             )
             for name in per_set[0]
         }
-        U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
+        # The records are laid out once per set in the run's own array; the run
+        # reads the measured outputs of the initial-state window only, and the
+        # rest is compared with the records' own.
+        n_window = min(self._init_window, Y.shape[1])
 
         def finish(out):
+            out = out.reshape(n_sets, n_rec, *Y.shape[1:])
             with np.errstate(all="ignore"):
-                r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
+                r = (Y[None] - out)[:, mask]
             return _penalised(r.reshape(n_sets, -1), Y[mask])[0]
 
         # The values every row shares (the fixed parameters) are part of the
@@ -346,7 +350,14 @@ n_inputs) or list of (n_times_i, n_inputs) arrays
         shared = sorted((k, repr(v)) for k, v in params.items() if np.ndim(v) == 0)
         key = (simulation_key(self), *shared)
         return SetRows(
-            self._simulate_records, key, structure, U_all, Y_all, params, finish
+            self._simulate_records,
+            key,
+            structure,
+            U,
+            Y[:, :n_window],
+            params,
+            finish,
+            copies=n_sets,
         )
 
     def _batched_jacobian(self, spec):

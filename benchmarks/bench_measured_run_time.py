@@ -17,7 +17,9 @@ process and of its workers. Run it at two commits (a clean clone of each, one
 after the other on a quiet machine) to compare them.
 
 Run: ``python benchmarks/bench_measured_run_time.py friction-damper --data
-../shared/data``.
+../shared/data``; ``--device cuda`` trains the run's networks on a GPU (run it
+with and without on one machine to compare them). It runs at commits before
+``--device`` existed when the option is left out.
 """
 
 import argparse
@@ -46,6 +48,7 @@ def main(argv=None):
     parser.add_argument("--data", required=True, help="folder of its files")
     parser.add_argument("--out", default=None, help="run folder (default: temporary)")
     parser.add_argument("--n-jobs", type=int, default=2)
+    parser.add_argument("--device", choices=["cpu", "cuda"], default=None)
     args = parser.parse_args(argv)
 
     spec = benchmark_spec(args.name, args.data)
@@ -56,14 +59,16 @@ def main(argv=None):
     spec = dataclasses.replace(spec, tests=stand_ins)
     out = Path(args.out or tempfile.mkdtemp(prefix="skhybrid-time-")) / args.name
     start = time.time()
-    run_system(spec, out, n_jobs=args.n_jobs, progress=False)
+    device = {} if args.device is None else {"device": args.device}
+    run_system(spec, out, n_jobs=args.n_jobs, progress=False, **device)
     end = time.time()
     models = out / "models"
     first = _last_written((models / f"{spec.name}-seed-0").glob("*.json"))
     sealed = (out / "selection.json").stat().st_mtime
     scored = _last_written(models.glob("*/test-predictions.npz"))
     print(
-        f"{args.name}: {os.cpu_count()} cores, {args.n_jobs} jobs, records "
+        f"{args.name}: {os.cpu_count()} cores, {args.n_jobs} jobs, "
+        f"networks on {args.device or 'cpu'}, records "
         f"{[len(u) for u in U]} (also the stand-in tests)"
     )
     for label, a, b in [

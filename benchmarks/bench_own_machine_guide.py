@@ -24,6 +24,7 @@ import resource
 import sys
 import tempfile
 import time
+from itertools import pairwise
 from pathlib import Path
 
 from skhybrid.experiments import run_system
@@ -75,7 +76,8 @@ def timed_run(spec, out, **kwargs):
     with contextlib.redirect_stderr(stamps):
         run_system(spec, out, **kwargs)
     wall = time.perf_counter() - wall
-    gaps = [b - a for a, b in zip([0.0, *stamps.times], [*stamps.times, wall])]
+    edges = [0.0, *stamps.times, wall]
+    gaps = [b - a for a, b in pairwise(edges)]
     return wall, _cpu_seconds() - cpu, max(gaps)
 
 

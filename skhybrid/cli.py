@@ -198,6 +198,13 @@ def _build_parser():
         "one-step residual white (default: process for double-pendulum, "
         "measurement for the others)",
     )
+    run.add_argument(
+        "--device",
+        choices=["cpu", "cuda"],
+        default="cpu",
+        help="where every network of the run trains (the physics stays on the "
+        "CPU); cuda needs a CUDA device (default: cpu)",
+    )
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     again = run.add_mutually_exclusive_group()
     again.add_argument(
@@ -380,6 +387,13 @@ class _DaskError(Exception):
     pass
 
 
+def _cuda_available():
+    """Whether torch finds a CUDA device (torch imported only when asked)."""
+    import torch
+
+    return torch.cuda.is_available()
+
+
 def _check_run_args(args):
     """One line for arguments that do not fit together, or None."""
     measured = args.system in MEASURED_SYSTEMS
@@ -398,6 +412,11 @@ def _check_run_args(args):
         )
     if args.seed is not None and args.seeds is not None:
         return "give --seeds S [S ...] once (--seed S is the same option)"
+    if args.device == "cuda" and not _cuda_available():
+        return (
+            "--device cuda: torch finds no CUDA device (torch.cuda.is_available() "
+            "is False); run on the CPU (the default)"
+        )
     if args.seed is not None:
         args.seeds = [args.seed]
     return None
@@ -470,6 +489,7 @@ def _plan(args):
             quick=args.quick,
             data=args.data,
             noise_type=args.noise_type,
+            device=args.device,
         )
     except ValueError as exc:
         raise _SpecError(str(exc)) from None

@@ -19,6 +19,12 @@ from skhybrid.simulation import (
     fit_initial_states,
     pack_trajectories,
 )
+from skhybrid.utils._docstrings import (
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    RECORDS_X,
+    fill_doc,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import Interval, _fit_context
@@ -142,6 +148,11 @@ def _sensitivities(a1, b1, a2, b2, coef, knots, u, free_b2):
     return y, np.concatenate(columns, axis=1)
 
 
+@fill_doc(
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
+)
 class WienerHammersteinModel(
     TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
 ):
@@ -475,8 +486,7 @@ class WienerHammersteinModel(
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record.
 
@@ -655,9 +665,7 @@ class WienerHammersteinModel(
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole record, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, 1), (n_trajectories, n_init, 1) \
 or list of 2-D arrays
             Measured outputs of each record's first ``n_init`` samples.
@@ -667,12 +675,7 @@ or list of 2-D arrays
             died out by the window's end). ``"least_squares"``: they start from
             the initial states whose run through the window matches its
             measured outputs best (:func:`~skhybrid.simulation.fit_initial_states`).
-        n_samples : None
-            Must be None: the model has no noise model.
-        random_state : None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: the model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

@@ -11,9 +11,12 @@ from scipy.signal import lfilter, lfiltic
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
+from skhybrid.utils._docstrings import NO_NOISE_SIMULATE_OPTIONS, fill_doc
+
 __all__ = []
 
 
+@fill_doc(no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS)
 class _LinearOutputError(BaseEstimator):
     """A linear output-error model ``y = B(q) / A(q) u + c`` fitted by simulation error.
 
@@ -165,12 +168,7 @@ class _LinearOutputError(BaseEstimator):
             Measured outputs of the first ``n_init >= order`` samples.
         init : {"measured"}, default="measured"
             Only ``"measured"``: the filter starts from the measured window.
-        n_samples : None
-            Must be None: the model has no noise model.
-        random_state : None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: the model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

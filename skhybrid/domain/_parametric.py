@@ -6,6 +6,7 @@ import numpy as np
 
 from skhybrid.domain._base import DomainModel
 from skhybrid.preprocessing import infer_n_steps, step_width
+from skhybrid.utils._array_api import takes_xp
 
 __all__ = ["ParametricModel"]
 
@@ -167,14 +168,7 @@ class ParametricModel(DomainModel):
         return super()._set_up(X, y, start=start)
 
     def _takes_xp(self):
-        try:
-            signature = inspect.signature(self.func)
-        except (TypeError, ValueError):
-            return False
-        return "xp" in signature.parameters or any(
-            p.kind is inspect.Parameter.VAR_KEYWORD
-            for p in signature.parameters.values()
-        )
+        return takes_xp(self.func, default=False)
 
     def _initial_params(self, X, y):
         if not self.params:

@@ -38,6 +38,7 @@ from skhybrid.simulation import (
     stack_trajectories,
 )
 from skhybrid.utils._array_api import get_namespace, is_torch
+from skhybrid.utils._docstrings import RECORD_INPUTS, fill_doc
 from skhybrid.utils._simulate_checks import check_simulate_options
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
@@ -53,6 +54,7 @@ __all__ = ["StateSpaceModel"]
 DEFAULT_N_INIT = 20
 
 
+@fill_doc(record_inputs=RECORD_INPUTS)
 class StateSpaceModel(
     _SimulationFitMixin, _InitialStateMixin, _IntegratorMixin, DomainModel
 ):
@@ -764,9 +766,7 @@ n_inputs) or list of 2-D arrays
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole experiment, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
             Measured outputs of the first ``n_init >= n_steps`` time steps, all

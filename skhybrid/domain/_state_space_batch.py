@@ -62,15 +62,19 @@ class SetRows:
         :func:`simulation_key` of the model, with its fixed values.
     structure : tuple
         The model's ``(n_states, observed, guess)``.
-    U, Y : ndarray of shape (n_rows, n_times, n_inputs) and (n_rows, n_times, \
-n_outputs)
-        Each row's inputs and measured outputs.
+    U, Y : ndarray of shape (n_records, n_times, n_inputs) and (n_records, \
+n_window, n_outputs)
+        The records' inputs, and their measured outputs over (at least) the
+        initial-state window, which is all the run reads of them.
     params : dict
         Each parameter's value: a float for every row, or an array of one per
         row.
     finish : callable
         ``finish(outputs) -> residuals`` of the simulated outputs ``(n_rows,
         n_times, n_outputs)``.
+    copies : int, default=1
+        The rows are the records ``copies`` times over (one copy per
+        parameter set): they are laid out once, in the run's own array.
     """
 
     run: Any
@@ -80,6 +84,12 @@ n_outputs)
     Y: np.ndarray
     params: dict
     finish: Any
+    copies: int = 1
+
+    @property
+    def n_rows(self):
+        """Rows of the free run: the records, ``copies`` times."""
+        return self.copies * len(self.U)
 
     @staticmethod
     def simulate_many(requests):
@@ -89,7 +99,8 @@ n_outputs)
     def simulate(self):
         """This request's residuals, simulated on its own."""
         per_row = {name for name, v in self.params.items() if np.ndim(v)}
-        out, _ = self.run(self.U, self.Y, self.params, self.structure, per_row)
+        U, Y = (np.tile(a, (self.copies, 1, 1)) for a in (self.U, self.Y))
+        out, _ = self.run(U, Y, self.params, self.structure, per_row)
         return self.finish(out)
 
 
@@ -128,7 +139,7 @@ def _chunks(members, requests):
     """
     chunks, current, rows, longest = [], [], 0, 0
     for i in members:
-        n_rows, n_times = requests[i].U.shape[:2]
+        n_rows, n_times = requests[i].n_rows, requests[i].U.shape[1]
         grown = (rows + n_rows) * max(longest, n_times)
         if current and grown > MAX_RUN_SAMPLES:
             chunks.append(current)
@@ -150,7 +161,7 @@ def _simulate_group(group):
         return [_outcome(request.simulate) for request in group]
     results, start = [], 0
     for request in group:
-        n_rows, n_times = request.U.shape[:2]
+        n_rows, n_times = request.n_rows, request.U.shape[1]
         rows = out[start : start + n_rows, :n_times]
         results.append(_outcome(lambda r=request, rows=rows: r.finish(rows)))
         start += n_rows
@@ -167,13 +178,21 @@ def _outcome(compute):
 
 def _merged(group):
     """``(U, Y, params, structure, per_row)`` of a group's rows stacked."""
-    n_times = max(r.U.shape[1] for r in group)
 
-    def padded(a):
-        return np.pad(a, ((0, 0), (0, n_times - a.shape[1]), (0, 0)))
+    def stacked(name):
+        # Each request's records, ``copies`` times, zero-padded to the longest.
+        arrays = [getattr(r, name) for r in group]
+        n_times = max(a.shape[1] for a in arrays)
+        n_rows = sum(r.n_rows for r in group)
+        out = np.zeros((n_rows, n_times, arrays[0].shape[2]), arrays[0].dtype)
+        start = 0
+        for r, a in zip(group, arrays, strict=True):
+            for _ in range(r.copies):
+                out[start : start + len(a), : a.shape[1]] = a
+                start += len(a)
+        return out
 
-    U = np.concatenate([padded(r.U) for r in group])
-    Y = np.concatenate([padded(r.Y) for r in group])
+    U, Y = stacked("U"), stacked("Y")
     params, per_row = {}, set()
     for name in group[0].params:
         values = [r.params[name] for r in group]
@@ -184,7 +203,7 @@ def _merged(group):
             continue
         params[name] = np.concatenate(
             [
-                np.broadcast_to(v, (len(r.U),))
+                np.broadcast_to(v, (r.n_rows,))
                 for v, r in zip(values, group, strict=True)
             ]
         )

@@ -18,6 +18,7 @@ from skhybrid.domain._state_space_batch import SetRows, simulation_key
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.losses import objective_residuals
 from skhybrid.simulation import check_trajectories
+from skhybrid.utils._docstrings import RECORDS_OUTPUTS, fill_doc
 from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._sklearn_compat import _fit_context
 from skhybrid.utils._transaction import transactional
@@ -42,6 +43,7 @@ def _penalised(r, Y):
     return np.where(diverged, bound, r), bound
 
 
+@fill_doc(records_outputs=RECORDS_OUTPUTS)
 class _SimulationFitMixin:
     """The simulation-error fit of a StateSpaceModel and where a fit starts."""
 
@@ -62,9 +64,7 @@ class _SimulationFitMixin:
 n_inputs) or list of (n_times_i, n_inputs) arrays
             Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
             ``t + 1``. Zero columns for an autonomous system.
-        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
-n_outputs) or list of (n_times_i, n_outputs) arrays
-            Measured outputs of each record, aligned with ``inputs``.
+        %(records_outputs)s
 
         Returns
         -------
@@ -333,11 +333,15 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
             )
             for name in per_set[0]
         }
-        U_all, Y_all = np.tile(U, (n_sets, 1, 1)), np.tile(Y, (n_sets, 1, 1))
+        # The records are laid out once per set in the run's own array; the run
+        # reads the measured outputs of the initial-state window only, and the
+        # rest is compared with the records' own.
+        n_window = min(self._init_window, Y.shape[1])
 
         def finish(out):
+            out = out.reshape(n_sets, n_rec, *Y.shape[1:])
             with np.errstate(all="ignore"):
-                r = (Y_all - out).reshape(n_sets, n_rec, *Y.shape[1:])[:, mask]
+                r = (Y[None] - out)[:, mask]
             return _penalised(r.reshape(n_sets, -1), Y[mask])[0]
 
         # The values every row shares (the fixed parameters) are part of the
@@ -346,7 +350,14 @@ n_outputs) or list of (n_times_i, n_outputs) arrays
         shared = sorted((k, repr(v)) for k, v in params.items() if np.ndim(v) == 0)
         key = (simulation_key(self), *shared)
         return SetRows(
-            self._simulate_records, key, structure, U_all, Y_all, params, finish
+            self._simulate_records,
+            key,
+            structure,
+            U,
+            Y[:, :n_window],
+            params,
+            finish,
+            copies=n_sets,
         )
 
     def _batched_jacobian(self, spec):

@@ -14,8 +14,10 @@ from skhybrid.simulation import (
     fit_initial_states,
 )
 from skhybrid.utils._array_api import is_torch
+from skhybrid.utils._docstrings import INITIAL_WINDOW_INPUTS, fill_doc
 
 
+@fill_doc(initial_window_inputs=INITIAL_WINDOW_INPUTS)
 class _InitialStateMixin:
     """Initial states of records and windows, and the records' checks."""
 
@@ -118,9 +120,7 @@ class _InitialStateMixin:
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs over (at least) the initialisation window of each record.
+        %(initial_window_inputs)s
         outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
 n_outputs) or list of 2-D arrays
             Measured outputs of the initialisation window; ``n_init >= 1``

@@ -7,13 +7,11 @@ records. A mixin of :class:`~skhybrid.domain.StateSpaceModel`, which holds the
 settings they read (``time``, ``dt``, ``method``, ``n_substeps``, ...).
 """
 
-import inspect
-
 import numpy as np
 from scipy.integrate import solve_ivp
 from sklearn.utils.validation import check_is_fitted
 
-from skhybrid.utils._array_api import get_namespace, is_torch
+from skhybrid.utils._array_api import get_namespace, is_torch, takes_xp
 
 
 class _IntegratorMixin:
@@ -22,14 +20,7 @@ class _IntegratorMixin:
     # -- the physics ---------------------------------------------------------------
     @staticmethod
     def _takes_xp(func):
-        try:
-            signature = inspect.signature(func)
-        except (TypeError, ValueError):
-            return True
-        return "xp" in signature.parameters or any(
-            p.kind is inspect.Parameter.VAR_KEYWORD
-            for p in signature.parameters.values()
-        )
+        return takes_xp(func, default=True)
 
     def _rhs_fn(self, params, xp):
         """``f(x, u)``: the user's ``rhs`` bound to ``params`` and ``xp``, checked."""
@@ -152,6 +143,18 @@ class _IntegratorMixin:
         f = self._rhs_fn(params, xp)
         h = self._output_fn(params, observed, xp)
         n_times = U.shape[1] if n_times is None else n_times
+        if xp is np and n_times:
+            # Written into one array as they come: a list stacked at the end
+            # would hold every output twice.
+            x, first = x0, np.asarray(h(x0))
+            out = np.empty((first.shape[0], n_times, *first.shape[1:]), first.dtype)
+            out[:, 0] = first
+            for t in range(n_times):
+                if t:
+                    out[:, t] = h(x)
+                if t < U.shape[1]:
+                    x = self._step(x, U[:, t], f)
+            return out, x
         x, outs = x0, []
         for t in range(n_times):
             outs.append(h(x))

@@ -5,7 +5,10 @@ from dataclasses import asdict, dataclass, replace
 
 from skhybrid.experiments._protocol import NOISE_TYPES
 
-__all__ = ["RunSettings", "check_settings"]
+__all__ = ["DEVICES", "RunSettings", "check_settings", "on_device"]
+
+#: Where a run's networks train (``--device``).
+DEVICES = ("cpu", "cuda")
 
 
 @dataclass(frozen=True)
@@ -29,17 +32,24 @@ class RunSettings:
         Where a one-step system's simulators put their noise (``--noise-type``);
         None takes the spec's own. A free-run system reads measured records
         and takes None only.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where every network of the run trains and simulates (``--device``);
+        the physics' fits stay on the CPU, where they are fastest. A GPU's
+        floating point differs from the CPU's, so a run on another device is
+        another run (its identity says so; the CPU, the default, is left out
+        of it, as in runs made before this setting existed).
 
     Examples
     --------
     >>> from skhybrid.experiments import RunSettings
     >>> RunSettings(quick=True).with_seed(3)
-    RunSettings(quick=True, seed=3, noise_type=None)
+    RunSettings(quick=True, seed=3, noise_type=None, device='cpu')
     """
 
     quick: bool = False
     seed: int = 0
     noise_type: str | None = None
+    device: str = "cpu"
 
     def __post_init__(self):
         if not isinstance(self.quick, bool):
@@ -55,6 +65,10 @@ class RunSettings:
             raise ValueError(
                 f"noise_type must be one of {NOISE_TYPES} or None; got "
                 f"noise_type={self.noise_type!r}."
+            )
+        if not isinstance(self.device, str) or self.device not in DEVICES:
+            raise ValueError(
+                f"device must be one of {DEVICES}; got device={self.device!r}."
             )
 
     def with_seed(self, seed):
@@ -78,9 +92,13 @@ class RunSettings:
         Returns
         -------
         settings : dict
-            Every field.
+            Every field; ``device`` only where it is not the CPU (a run's
+            identity, and its ``results.json``, as before the setting).
         """
-        return asdict(self)
+        settings = asdict(self)
+        if settings["device"] == "cpu":
+            del settings["device"]
+        return settings
 
 
 def check_settings(system, settings):
@@ -111,3 +129,35 @@ def check_settings(system, settings):
             f"{system.name} is a measured system, whose records hold their own: "
             f"leave it unset; got noise_type={settings.noise_type!r}."
         )
+
+
+def on_device(estimator, device):
+    """Put every network inside ``estimator`` on ``device``.
+
+    Sets each ``device`` parameter of ``estimator`` and of the estimators it
+    holds (``get_params(deep=True)``: a hybrid's stages, an ensemble's
+    members), where it is not already ``device``.
+
+    Parameters
+    ----------
+    estimator : estimator
+        A model of a run's family.
+    device : {"cpu", "cuda"}
+        The run's device.
+
+    Returns
+    -------
+    estimator : estimator
+        ``estimator``, changed in place.
+    """
+    if not hasattr(estimator, "get_params"):
+        return estimator
+    params = estimator.get_params(deep=True)
+    moved = {
+        name: device
+        for name, value in params.items()
+        if (name == "device" or name.endswith("__device")) and value != device
+    }
+    if moved:
+        estimator.set_params(**moved)
+    return estimator

@@ -10,6 +10,12 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import check_trajectories, simulate
+from skhybrid.utils._docstrings import (
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    RECORDS_X,
+    fill_doc,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
@@ -19,6 +25,11 @@ from skhybrid.utils._validation import check_record_lengths, validate_records
 __all__ = ["NARXSimulator"]
 
 
+@fill_doc(
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
+)
 class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
     """A one-step NARX regressor on windows of past outputs and inputs, in free run.
 
@@ -103,8 +114,7 @@ class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, n_outputs), or list \
 of them
             The measured outputs of each record, aligned with ``X``; windows
@@ -154,9 +164,7 @@ of them
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole record, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
             Measured outputs of the first ``n_init >= n_steps`` samples.
@@ -164,12 +172,7 @@ n_init, n_outputs) or list of 2-D arrays
             Start from the newest ``n_steps`` measured samples as they are, or
             from the first window fitted so that the free run matches the whole
             measured initial window (see :func:`skhybrid.simulation.simulate`).
-        n_samples : None
-            Must be None: the model has no noise model.
-        random_state : None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: the model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

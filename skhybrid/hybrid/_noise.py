@@ -20,6 +20,7 @@ from numbers import Integral
 import numpy as np
 from sklearn.utils import check_random_state
 
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -32,7 +33,34 @@ __all__ = ["AutoRegressiveNoise", "GaussianNoise", "make_noise_model"]
 
 NOISE_MODELS = ("gaussian", "ar")
 
+#: The sections of the noise models' ``fit`` and ``sample``, one contract.
+_NOISE_DOCS = {
+    "fit_sections": """\
+Parameters
+----------
+residuals : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    Final residuals of a model, in time order.
 
+Returns
+-------
+self : object
+    The fitted noise model.""",
+    "sample_sections": """\
+Parameters
+----------
+n_samples : int
+    Number of rows to draw.
+random_state : int, RandomState instance or None, default=None
+    Seed of the draw.
+
+Returns
+-------
+noise : ndarray of shape (n_samples, n_outputs)
+    The draws.""",
+}
+
+
+@fill_doc(**_NOISE_DOCS)
 class GaussianNoise(TransactionalFitMixin, VersionedPickleMixin):
     """Independent Gaussian noise with a mean and a covariance across outputs.
 
@@ -58,15 +86,7 @@ class GaussianNoise(TransactionalFitMixin, VersionedPickleMixin):
     def fit(self, residuals):
         """Estimate the mean and the covariance across outputs of ``residuals``.
 
-        Parameters
-        ----------
-        residuals : array-like of shape (n_samples,) or (n_samples, n_outputs)
-            Final residuals of a model, in time order.
-
-        Returns
-        -------
-        self : object
-            The fitted noise model.
+        %(fit_sections)s
         """
         r = _as_2d(residuals)
         if r.shape[0] < 2:
@@ -92,17 +112,7 @@ class GaussianNoise(TransactionalFitMixin, VersionedPickleMixin):
     def sample(self, n_samples, random_state=None):
         """Draw ``n_samples`` independent rows.
 
-        Parameters
-        ----------
-        n_samples : int
-            Number of rows to draw.
-        random_state : int, RandomState instance or None, default=None
-            Seed of the draw.
-
-        Returns
-        -------
-        noise : ndarray of shape (n_samples, n_outputs)
-            The draws.
+        %(sample_sections)s
         """
         rng = check_random_state(random_state)
         # A symmetric square root (eigh) also handles a singular covariance.
@@ -112,6 +122,7 @@ class GaussianNoise(TransactionalFitMixin, VersionedPickleMixin):
         return self.mean_ + z @ root.T
 
 
+@fill_doc(**_NOISE_DOCS)
 class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
     """One autoregressive process per output, order chosen by an information criterion.
 
@@ -170,15 +181,7 @@ class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
     def fit(self, residuals):
         """Select the order and fit one AR model per output of ``residuals``.
 
-        Parameters
-        ----------
-        residuals : array-like of shape (n_samples,) or (n_samples, n_outputs)
-            Final residuals of a model, in time order.
-
-        Returns
-        -------
-        self : object
-            The fitted noise model.
+        %(fit_sections)s
         """
         from statsmodels.tsa.ar_model import AutoReg, ar_select_order
 
@@ -262,17 +265,7 @@ class AutoRegressiveNoise(TransactionalFitMixin, VersionedPickleMixin):
         The simulation starts after a burn-in of 200 steps plus the largest lag,
         so it starts from (close to) the stationary distribution.
 
-        Parameters
-        ----------
-        n_samples : int
-            Number of rows to draw.
-        random_state : int, RandomState instance or None, default=None
-            Seed of the draw.
-
-        Returns
-        -------
-        noise : ndarray of shape (n_samples, n_outputs)
-            The draws.
+        %(sample_sections)s
         """
         from statsmodels.tsa.arima_process import ArmaProcess
 

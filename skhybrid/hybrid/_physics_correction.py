@@ -14,6 +14,12 @@ from skhybrid.simulation import (
     pack_trajectories,
     stack_trajectories,
 )
+from skhybrid.utils._docstrings import (
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    RECORDS_X,
+    fill_doc,
+)
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
@@ -48,6 +54,11 @@ def _windows(columns, n):
     return view.reshape(len(X), -1)
 
 
+@fill_doc(
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+    records_x=RECORDS_X,
+)
 class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
     """A fitted physics in free run plus a static map of its own recent window.
 
@@ -188,8 +199,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record, aligned with ``X``; the physics
             starts from its first ``n_init`` samples, and each record needs at
@@ -223,8 +233,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
 
         Parameters
         ----------
-        X : array-like of shape (n_times, n_inputs), or list of them
-            The inputs of one record, or of each of several records.
+        %(records_x)s
         y : array-like of shape (n_times,) or (n_times, 1), or list of them
             The measured output of each record.
         physics_outputs : array-like of shape (n_times,) or (n_times, 1), or \
@@ -310,21 +319,14 @@ list of them
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole record, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, 1), (n_trajectories, n_init, 1) \
 or list of 2-D arrays
             Measured outputs of the first samples; the physics estimates its
             initial state from them.
         init : {"measured"}, default="measured"
             Only ``"measured"``: the physics starts from the measured window.
-        n_samples : None
-            Must be None: the model has no noise model.
-        random_state : None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: the model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------

@@ -14,6 +14,7 @@ from sklearn.utils import check_random_state
 
 from skhybrid.neural.engine import check_sequence_objective
 from skhybrid.simulation import check_trajectories
+from skhybrid.utils._docstrings import RECORDS_OUTPUTS, fill_doc
 from skhybrid.utils._sklearn_compat import _fit_context
 from skhybrid.utils._transaction import transactional
 
@@ -22,6 +23,7 @@ from skhybrid.utils._transaction import transactional
 MIN_SUBSEQUENCES = 500
 
 
+@fill_doc(records_outputs=RECORDS_OUTPUTS)
 class _RecordsFitMixin:
     """``fit_simulation``: the records cut into training windows."""
 
@@ -35,9 +37,7 @@ class _RecordsFitMixin:
 n_inputs) or list of (n_times_i, n_inputs) arrays
             Inputs of each record; ``inputs[t]`` acts between samples ``t`` and
             ``t + 1``.
-        outputs : array-like of shape (n_times, n_outputs), (n_records, n_times, \
-n_outputs) or list of (n_times_i, n_outputs) arrays
-            Measured outputs of each record, aligned with ``inputs``.
+        %(records_outputs)s
 
         Returns
         -------

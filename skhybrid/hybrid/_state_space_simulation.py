@@ -17,9 +17,20 @@ from skhybrid.simulation import (
     pack_trajectories,
     stack_trajectories,
 )
+from skhybrid.utils._docstrings import (
+    INITIAL_WINDOW_INPUTS,
+    NO_NOISE_SIMULATE_OPTIONS,
+    RECORD_INPUTS,
+    fill_doc,
+)
 from skhybrid.utils._simulate_checks import check_simulate_options
 
 
+@fill_doc(
+    initial_window_inputs=INITIAL_WINDOW_INPUTS,
+    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
+    record_inputs=RECORD_INPUTS,
+)
 class _SimulationMixin:
     """``simulate``, ``simulate_from_state`` and ``estimate_initial_state``."""
 
@@ -43,9 +54,7 @@ class _SimulationMixin:
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole experiment, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, n_outputs), (n_trajectories, \
 n_init, n_outputs) or list of 2-D arrays
             Measured outputs of the first time steps (at least ``n_init``), all
@@ -60,12 +69,7 @@ n_init, n_outputs) or list of 2-D arrays
             trajectory), and the simulation continues from that run; with
             ``initial`` well longer than ``n_init`` this averages the
             measurement noise out of the start.
-        n_samples : int or None, default=None
-            Must be None: this model has no noise model.
-        random_state : int, RandomState instance or None, default=None
-            Unused (no noise model).
-        return_std : bool, default=False
-            Must be False: this model has no noise model.
+        %(no_noise_simulate_options)s
 
         Returns
         -------
@@ -141,9 +145,7 @@ n_init, n_outputs) or list of 2-D arrays
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs over (at least) the initialisation window of each record.
+        %(initial_window_inputs)s
         outputs : array-like of shape (n_init, n_outputs), (n_records, n_init, \
 n_outputs) or list of 2-D arrays
             Measured outputs of the initialisation window.

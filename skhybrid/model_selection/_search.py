@@ -35,6 +35,7 @@ from skhybrid.model_selection._stacking import (
     _as_2d,
     _cross_fitted_weights,
 )
+from skhybrid.utils._docstrings import RECORD_INPUTS_INITIAL, fill_doc
 from skhybrid.utils._lockstep import run_in_lockstep
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
@@ -855,6 +856,7 @@ class SimulationSearchCV(BaseEstimator):
 
     # -- delegation --------------------------------------------------------------
     @available_if(_best_has("simulate"))
+    @fill_doc(record_inputs_initial=RECORD_INPUTS_INITIAL)
     def simulate(
         self,
         inputs,
@@ -869,10 +871,7 @@ class SimulationSearchCV(BaseEstimator):
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            Inputs over the whole record, initial window included.
-        initial : array-like of shape (n_init, n_outputs)
-            Measured outputs of the first samples.
+        %(record_inputs_initial)s
         init : {"measured", "least_squares"}, default="measured"
             How the simulation starts; passed on where it is not the default.
         n_samples : int, default=None

@@ -19,6 +19,7 @@ from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.model_selection._records import _check_records
+from skhybrid.utils._docstrings import RECORD_INPUTS_INITIAL, fill_doc
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 
 __all__ = ["SimulationFit"]
@@ -78,6 +79,7 @@ def _estimator_has(attr):
     return check
 
 
+@fill_doc(record_inputs_initial=RECORD_INPUTS_INITIAL)
 class SimulationFit(BaseEstimator):
     """A model fitted on records by its free-run error, over segments.
 
@@ -196,10 +198,7 @@ class SimulationFit(BaseEstimator):
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            Inputs over the whole record, initial window included.
-        initial : array-like of shape (n_init, n_outputs)
-            Measured outputs of the first samples.
+        %(record_inputs_initial)s
         **kwargs : dict
             Passed on to ``estimator_.simulate``.
 

@@ -11,6 +11,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.model_selection._records import _check_records
+from skhybrid.utils._docstrings import RECORD_INPUTS_INITIAL, fill_doc
 
 __all__ = ["StackedSimulation"]
 
@@ -86,6 +87,7 @@ def _as_2d(pred, n_times):
     return pred.reshape(n_times, -1)
 
 
+@fill_doc(record_inputs_initial=RECORD_INPUTS_INITIAL)
 class StackedSimulation(BaseEstimator):
     """A weighted average of models' free runs: weights non-negative, summing to one.
 
@@ -233,10 +235,7 @@ class StackedSimulation(BaseEstimator):
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs)
-            Inputs over the whole record, initial window included.
-        initial : array-like of shape (n_init, n_outputs)
-            Measured outputs of the first samples.
+        %(record_inputs_initial)s
         init : {"measured", "least_squares"}, default="measured"
             How each model starts; passed on where it is not the default.
         n_samples : None

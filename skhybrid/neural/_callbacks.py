@@ -125,9 +125,7 @@ class BatchIterator:
         n_segments = n // m
         spare = n - n_segments * m
         offset = (
-            int(torch.randint(spare + 1, (), generator=self.generator))
-            if spare
-            else 0
+            int(torch.randint(spare + 1, (), generator=self.generator)) if spare else 0
         )
         need = len(bounds) * per_batch
         order = torch.cat(

@@ -562,6 +562,11 @@ def seeded(seed, device="cpu"):
         Seed for :func:`torch.manual_seed`.
     device : {"cpu", "cuda"}, default="cpu"
         The training device (its CUDA random state is forked too).
+
+    Yields
+    ------
+    None
+        Control, with torch's global random state seeded.
     """
     with _GLOBAL_RNG, torch.random.fork_rng(devices=rng_devices(device)):
         torch.manual_seed(seed)

@@ -7,6 +7,7 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.exceptions import SimulationDivergedError
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation._initial import fit_initial_states
+from skhybrid.utils._docstrings import RECORD_INPUTS, fill_doc
 from skhybrid.utils._simulate_checks import check_simulate_options
 
 __all__ = ["SimulatorMixin", "check_trajectories", "pack_trajectories", "simulate"]
@@ -529,6 +530,7 @@ n_states) or list of (n_init_i, n_states) arrays
     return _pack(Yp, lengths, form)
 
 
+@fill_doc(record_inputs=RECORD_INPUTS)
 class SimulatorMixin:
     """Adds :meth:`simulate` to an estimator that predicts the next state."""
 
@@ -550,9 +552,7 @@ class SimulatorMixin:
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_trajectories, \
-n_times, n_inputs) or list of 2-D arrays
-            Inputs over the whole experiment, initial window included.
+        %(record_inputs)s
         initial : array-like of shape (n_init, n_states), (n_trajectories, \
 n_init, n_states) or list of 2-D arrays
             Measured states of the first ``n_init`` time steps.

@@ -6,11 +6,13 @@ namespace of the arrays it is given: NumPy for :func:`scipy.optimize.least_squar
 torch for gradient-based training and exact Jacobians by automatic differentiation.
 """
 
+import inspect
+
 import numpy as np
 
 from skhybrid.utils._sklearn_compat import array_api_compat
 
-__all__ = ["get_namespace", "is_torch", "to_numpy"]
+__all__ = ["get_namespace", "is_torch", "takes_xp", "to_numpy"]
 
 
 def get_namespace(*arrays):
@@ -62,3 +64,30 @@ def to_numpy(array):
     if hasattr(array, "detach"):
         return array.detach().cpu().numpy()
     return np.asarray(array)
+
+
+def takes_xp(func, *, default):
+    """Whether ``func`` takes the array namespace as its keyword ``xp``.
+
+    A user's equations written against :func:`get_namespace`'s namespace take
+    ``xp=``; plain NumPy ones do not, and are called without it.
+
+    Parameters
+    ----------
+    func : callable
+        The user's function.
+    default : bool
+        The answer where ``func``'s signature cannot be read (a builtin, say).
+
+    Returns
+    -------
+    takes : bool
+        True where ``func`` has a parameter ``xp`` or takes ``**kwargs``.
+    """
+    try:
+        signature = inspect.signature(func)
+    except (TypeError, ValueError):
+        return default
+    return "xp" in signature.parameters or any(
+        p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()
+    )

@@ -19,6 +19,7 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.cli import main
 from skhybrid.experiments import RunSettings, SystemSpec, load_fitted, run_system
+from skhybrid.experiments._settings import on_device
 from skhybrid.experiments.free_run import _family as _measured_zoo
 from skhybrid.experiments.free_run import _search as _measured_search
 
@@ -887,3 +888,69 @@ def test_the_epoch_total_counts_folds_candidates_and_refits(machine):
     assert n_folds < 4
     only = {"dense NARX": models["dense NARX"]}
     assert _measured_zoo.epochs_at_most(only, short) == n_folds * 60 + 60
+
+
+def test_device_puts_every_network_of_a_run_there(machine, tmp_path, monkeypatch):
+    # No GPU here: the run asks for "cuda"; where its networks would be moved
+    # is recorded, and they stay on the CPU.
+    from skhybrid.experiments.run import _run_system
+
+    placed = []
+
+    def record(estimator, device):
+        placed.append((type(estimator).__name__, device))
+        return on_device(estimator, "cpu")
+
+    monkeypatch.setattr(_run_system, "check_device", lambda device: None)
+    monkeypatch.setattr(_measured_zoo, "on_device", record)
+    out = tmp_path / "run"
+    spec = machine.make_spec(out=out)
+    run_system(spec, out, quick=True, seeds=[0], n_jobs=1, device="cuda")
+    kinds = {kind for kind, _ in placed}
+    assert {device for _, device in placed} == {"cuda"}
+    assert {"NARXSimulator", "StateSpaceHybridRegressor"} <= kinds
+    # Another device is another run: its identity says so.
+    run = json.loads((out / "run.json").read_text())
+    assert run["identity"]["settings"]["device"] == "cuda"
+
+
+@pytest.mark.skipif(
+    __import__("torch").cuda.is_available(), reason="this machine has CUDA"
+)
+def test_device_cuda_without_a_gpu_is_refused_before_the_folder(machine, tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(ValueError, match="device='cuda' but torch finds no CUDA"):
+        run_system(machine.make_spec(out=out), out, quick=True, device="cuda")
+    assert not out.exists()
+    with pytest.raises(ValueError, match="device must be one of"):
+        run_system(machine.make_spec(out=out), out, quick=True, device="tpu")
+
+
+def test_on_device_reaches_the_networks_inside_a_model():
+    from sklearn.ensemble import VotingRegressor
+
+    from skhybrid.neural import DenseRegressor
+
+    model = VotingRegressor([("a", DenseRegressor()), ("b", DenseRegressor())])
+    assert on_device(model, "cuda") is model
+    assert {m.device for _, m in model.estimators} == {"cuda"}
+    settings = RunSettings(device="cuda")
+    assert settings.to_dict()["device"] == "cuda"
+    assert "device" not in RunSettings().to_dict()  # identities as before
+    with pytest.raises(ValueError, match="device must be one of"):
+        RunSettings(device="gpu")
+
+
+@pytest.mark.gpu
+def test_a_run_on_the_gpu_trains_its_networks_there(machine, tmp_path):
+    import torch
+
+    if not torch.cuda.is_available():
+        pytest.skip("needs CUDA")
+    out = tmp_path / "run"
+    summary = run_system(
+        machine.make_spec(out=out), out, quick=True, seeds=[0], device="cuda"
+    )
+    assert np.isfinite(summary["chosen_test_rmse"]["test"]["mean"])
+    hybrid = load_fitted(out, model="state-space hybrid").estimator
+    assert hybrid.device == "cuda"

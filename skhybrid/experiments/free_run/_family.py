@@ -31,6 +31,7 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel, fit_progress
 from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.experiments._settings import on_device
 from skhybrid.experiments._spec import pieces_per_record
 from skhybrid.experiments.free_run._stack import STACK, choose_stack
 from skhybrid.experiments.run._fitting import (
@@ -187,6 +188,8 @@ class MeasuredContext:
         Threads of torch and the BLAS while the model is chosen and refitted
         in this process, the same as in each worker (so a refit computes what
         it would in a worker); None leaves them.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the networks train (the run's ``--device``).
     """
 
     system: object
@@ -202,10 +205,12 @@ class MeasuredContext:
     searched: object = None
     n_jobs: object = None
     n_threads: object = None
+    device: str = "cpu"
 
 
 def _watch(estimator, ctx):
-    """Report the networks' epochs inside ``estimator`` to the run's progress."""
+    """Put ``estimator``'s networks on the run's device; report their epochs."""
+    on_device(estimator, ctx.device)
     if ctx.sink is not None and hasattr(estimator, "get_params"):
         attach_epoch_logger(estimator, ctx.sink, ctx.label)
     return estimator

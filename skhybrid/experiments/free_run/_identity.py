@@ -20,7 +20,7 @@ from skhybrid.experiments.run._provenance import provenance
 __all__ = ["measured_identity", "record_digests", "spec_digest", "spec_fields"]
 
 
-def measured_identity(system, quick, seeds, *, digest=True):
+def measured_identity(system, quick, seeds, *, digest=True, device="cpu"):
     """What makes two measured runs the same (a resumed run must match it).
 
     Parameters
@@ -34,6 +34,8 @@ def measured_identity(system, quick, seeds, *, digest=True):
     digest : bool, default=True
         Whether to take the spec's digest (False: ``"spec"`` is None, for a
         system not yet bound).
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the networks train (part of the settings where not the CPU).
 
     Returns
     -------
@@ -44,7 +46,7 @@ def measured_identity(system, quick, seeds, *, digest=True):
         a resume never reuses models fitted under another commit, other
         kernels or another spec.
     """
-    settings = RunSettings(quick=bool(quick), seed=seeds[0])
+    settings = RunSettings(quick=bool(quick), seed=seeds[0], device=device)
     code = provenance()
     return {
         "skhybrid": skhybrid.__version__,

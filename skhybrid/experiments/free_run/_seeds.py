@@ -55,6 +55,7 @@ def run_seeds(
     progress=False,
     folder=None,
     data=None,
+    device="cpu",
 ):
     """Select at every seed, seal, then read and score the test records.
 
@@ -74,6 +75,8 @@ def run_seeds(
         The run folder (finished models kept, ``selection.json`` written).
     data : str or Path or None, default=None
         A built-in benchmark's data folder; None fetches its files.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where the networks train.
 
     Returns
     -------
@@ -95,7 +98,7 @@ def run_seeds(
     seeds = list(seeds)
     first = fit_seed(
         system,
-        RunSettings(quick=bool(quick), seed=seeds[0]),
+        RunSettings(quick=bool(quick), seed=seeds[0], device=device),
         n_jobs=n_jobs,
         progress=progress,
         folder=folder,
@@ -107,7 +110,10 @@ def run_seeds(
         refit_start = time.perf_counter()
         results += fit_zoos(
             first.system,
-            [RunSettings(quick=bool(quick), seed=seed) for seed in seeds[1:]],
+            [
+                RunSettings(quick=bool(quick), seed=seed, device=device)
+                for seed in seeds[1:]
+            ],
             n_jobs=n_jobs,
             progress=progress,
             folder=folder,

@@ -462,6 +462,7 @@ def _context(result, searched=None):
         result.settings.seed,
         cache=result.cache_dir,
         searched=searched,
+        device=result.settings.device,
     )
 
 

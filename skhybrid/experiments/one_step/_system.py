@@ -21,6 +21,7 @@ from sklearn.base import clone
 from skhybrid.domain import LinearStateSpaceModel
 from skhybrid.experiments._describe import canonical, describe
 from skhybrid.experiments._protocol import OneStepWindows
+from skhybrid.experiments._settings import on_device
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments.one_step._result import ExperimentResult, fit_one, hull_shares
 from skhybrid.experiments.one_step._stochastic import VALIDATION_SPLIT
@@ -549,4 +550,4 @@ def model_zoo(system, settings):
         batch_size=s.batch_size,
         random_state=seed + 7,
     )
-    return zoo
+    return {name: on_device(model, settings.device) for name, model in zoo.items()}

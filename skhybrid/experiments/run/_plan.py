@@ -85,6 +85,8 @@ class RunPlan:
         A built-in measured benchmark's files.
     noise_type : {"measurement", "process"} or None, default=None
         Where a one-step system's simulators put their noise (None: its own).
+    device : {"cpu", "cuda"}, default="cpu"
+        Where every network of the run trains (see :class:`RunSettings`).
 
     Raises
     ------
@@ -94,7 +96,16 @@ class RunPlan:
         range; ``noise_type`` for a free-run system.
     """
 
-    def __init__(self, systems, *, seeds=None, quick=False, data=None, noise_type=None):
+    def __init__(
+        self,
+        systems,
+        *,
+        seeds=None,
+        quick=False,
+        data=None,
+        noise_type=None,
+        device="cpu",
+    ):
         systems = list(systems)
         self.measured = systems[0].measured
         if any(system.measured != self.measured for system in systems):
@@ -116,6 +127,7 @@ class RunPlan:
         self.quick = bool(quick)
         self.data = data
         self.noise_type = noise_type
+        self.device = device
         self._bound = None
         for system in systems:
             check_settings(system, self.settings(self.seeds[0]))
@@ -149,9 +161,11 @@ class RunPlan:
         Returns
         -------
         settings : RunSettings
-            The run's ``quick`` and noise type at ``seed``.
+            The run's ``quick``, noise type and device at ``seed``.
         """
-        return RunSettings(quick=self.quick, seed=seed, noise_type=self.noise_type)
+        return RunSettings(
+            quick=self.quick, seed=seed, noise_type=self.noise_type, device=self.device
+        )
 
     @property
     def identity(self):
@@ -176,7 +190,11 @@ class RunPlan:
         """
         if self.measured:
             identity = measured_identity(
-                self.systems[0], self.quick, self.seeds, digest=False
+                self.systems[0],
+                self.quick,
+                self.seeds,
+                digest=False,
+                device=self.device,
             )
             del identity["spec"]
             return identity
@@ -237,6 +255,7 @@ class RunPlan:
                 progress=progress,
                 folder=folder,
                 data=self.data,
+                device=self.device,
             )
             return [run]
         return [

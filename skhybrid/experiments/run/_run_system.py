@@ -30,12 +30,14 @@ import shlex
 import numpy as np
 
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
+from skhybrid.experiments._settings import DEVICES
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments.free_run._identity import measured_identity
 from skhybrid.experiments.run._plan import DEFAULT_SEEDS, RunPlan, check_seeds
 from skhybrid.experiments.run._store import RunFolder
 from skhybrid.experiments.run._transaction import RunTransaction
 from skhybrid.hybrid import TransformedInputSimulator
+from skhybrid.neural.engine import check_device
 
 __all__ = [
     "DEFAULT_SEEDS",
@@ -47,7 +49,7 @@ __all__ = [
 ]
 
 
-def _run_arguments(seeds, n_jobs, overwrite, resume):
+def _run_arguments(seeds, n_jobs, overwrite, resume, device="cpu"):
     """The Python API's arguments, checked as the command line checks its own.
 
     ``seeds``: an int is one seed (``--seed S``), None the default seeds.
@@ -70,6 +72,9 @@ def _run_arguments(seeds, n_jobs, overwrite, resume):
             "overwrite=True replaces the run in the folder and resume=True carries "
             "it on: pass one of them, not both."
         )
+    if device not in DEVICES:
+        raise ValueError(f"device must be one of {DEVICES}; got device={device!r}.")
+    check_device(device)
     return seeds, int(n_jobs)
 
 
@@ -96,6 +101,7 @@ def run_system(
     overwrite=False,
     resume=False,
     progress=True,
+    device="cpu",
 ):
     """Fit, choose, seal and score the system described by ``spec``, into ``out``.
 
@@ -146,6 +152,10 @@ def run_system(
         Progress on standard error, as the command line shows it: bars of the
         models and epochs in a terminal, a line per finished model elsewhere (a
         notebook's log, a file); False is silent.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where every network of the run trains and simulates, as ``--device``
+        (the physics' fits stay on the CPU); ``"cuda"`` needs a CUDA device.
+        A run on another device is another run (its floating point differs).
 
     Returns
     -------
@@ -169,11 +179,18 @@ def run_system(
     >>> results = run_system(spec, "runs/my-machine")  # doctest: +SKIP
     >>> results["chosen_test_rmse"]["test"]["mean"]  # doctest: +SKIP
     """
-    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume)
+    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, resume, device)
     if not isinstance(spec, SystemSpec):
         raise TypeError(f"spec must be a SystemSpec; got {type(spec).__name__}.")
-    plan = RunPlan([system_of(spec)], seeds=seeds, quick=quick, noise_type=noise_type)
+    plan = RunPlan(
+        [system_of(spec)],
+        seeds=seeds,
+        quick=quick,
+        noise_type=noise_type,
+        device=device,
+    )
     noise = "" if noise_type is None else f", noise_type={noise_type!r}"
+    noise += "" if device == "cpu" else f", device={device!r}"
     command = (
         f"skhybrid.experiments.run_system(<SystemSpec {spec.name!r}>, "
         f"{str(out)!r}, seeds={seeds}, quick={bool(quick)}{noise})"
@@ -199,6 +216,7 @@ def run_measured(
     n_jobs=2,
     overwrite=False,
     progress=True,
+    device="cpu",
 ):
     """Run a built-in measured benchmark into the run folder ``out``.
 
@@ -231,6 +249,10 @@ def run_measured(
     progress : bool, default=True
         Progress on standard error (bars in a terminal, a line per finished
         model elsewhere); False is silent.
+    device : {"cpu", "cuda"}, default="cpu"
+        Where every network of the run trains and simulates, as ``--device``
+        (the physics' fits stay on the CPU); ``"cuda"`` needs a CUDA device.
+        A run on another device is another run (its floating point differs).
 
     Returns
     -------
@@ -242,12 +264,16 @@ def run_measured(
             f"name must be one of {sorted(MEASURED_SYSTEMS)}; got name={name!r}."
         )
 
-    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, False)
+    seeds, n_jobs = _run_arguments(seeds, n_jobs, overwrite, False, device)
     words = ["run", name] + (["--data", str(data)] if data is not None else [])
     words += ["--out", str(out)] + ["--quick"] * bool(quick)
     words += ["--seeds", *map(str, seeds)]
+    words += [] if device == "cpu" else ["--device", device]
+    plan = RunPlan(
+        [MEASURED_SYSTEMS[name]], seeds=seeds, quick=quick, data=data, device=device
+    )
     return _run_folder(
-        RunPlan([MEASURED_SYSTEMS[name]], seeds=seeds, quick=quick, data=data),
+        plan,
         "skhybrid " + shlex.join(words),
         out,
         n_jobs=n_jobs,

@@ -229,7 +229,7 @@ class EpochProgress(Callback):
     ----------
     sink : object
         Anything with ``emit(event)`` (the run's progress,
-        :mod:`skhybrid.experiments._progress`).
+        :mod:`skhybrid.experiments.run._progress`).
     name : str
         What is trained (the model's name).
     """

@@ -954,3 +954,20 @@ def test_a_run_on_the_gpu_trains_its_networks_there(machine, tmp_path):
     assert np.isfinite(summary["chosen_test_rmse"]["test"]["mean"])
     hybrid = load_fitted(out, model="state-space hybrid").estimator
     assert hybrid.device == "cuda"
+
+
+def test_the_paper_zoo_at_a_device_has_every_network_there():
+    from skhybrid.experiments import get_system, model_zoo
+
+    zoo = model_zoo(get_system("pendulum"), RunSettings(quick=True, device="cuda"))
+    devices = {
+        name: {
+            value
+            for key, value in model.get_params(deep=True).items()
+            if key == "device" or key.endswith("__device")
+        }
+        for name, model in zoo.items()
+    }
+    assert devices["dense"] == devices["physics+rnn (ljung-box)"] == {"cuda"}
+    assert devices["ensemble"] == {"cuda"}
+    assert all(found in (set(), {"cuda"}) for found in devices.values())

@@ -7,7 +7,7 @@ read in any of them. A function or class written in the user's script
 pickle's check that the name gives back the very object: a worker holds the
 copies each task received by value, and names in its ``__main__`` only those
 of its first task (:func:`main_objects`, see
-:func:`~skhybrid.experiments.free_run._search.expose_main_functions`). Read in
+:func:`~skhybrid.experiments.free_run._family.expose_main_functions`). Read in
 the run's process, the names give back the script's own.
 """
 

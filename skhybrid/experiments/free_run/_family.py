@@ -19,6 +19,7 @@ models fitted before it.
 
 import itertools
 import logging
+import sys
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -31,6 +32,7 @@ from sklearn.linear_model import Ridge
 
 from skhybrid.domain import StateSpaceModel, fit_progress
 from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.experiments._pickling import main_objects
 from skhybrid.experiments._settings import on_device
 from skhybrid.experiments._spec import pieces_per_record
 from skhybrid.experiments.free_run._stack import STACK, choose_stack
@@ -55,6 +57,7 @@ __all__ = [
     "MeasuredContext",
     "ZooModel",
     "epochs_at_most",
+    "expose_main_functions",
     "fit_pieces_label",
     "pooled_rmse",
     "simulate_records",
@@ -206,6 +209,26 @@ class MeasuredContext:
     n_jobs: object = None
     n_threads: object = None
     device: str = "cpu"
+
+
+def expose_main_functions(spec):
+    """Make the spec's functions written in the user's script findable by name.
+
+    A worker process receives a physics written in the user's script
+    (``__main__``) by value, but returns its fits with the standard pickle,
+    which stores a function by module and name, and finds none of that name in
+    the worker's own ``__main__``. Named there, they go back by name and load in
+    the user's process, where they live.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The system whose physics, inputs map and candidates are searched.
+    """
+    main = sys.modules["__main__"]
+    for name, obj in main_objects(spec.physics, spec.physics_inputs).items():
+        if not hasattr(main, name):
+            setattr(main, name, obj)
 
 
 def _watch(estimator, ctx):

@@ -14,7 +14,6 @@ import contextlib
 import hashlib
 import logging
 import pickle
-import sys
 import time
 import warnings
 from dataclasses import replace
@@ -25,14 +24,18 @@ import numpy as np
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import FitFailedWarning
 
-from skhybrid.experiments._pickling import dump_fit, load_fit, main_objects
+from skhybrid.experiments._pickling import dump_fit, load_fit
 from skhybrid.experiments._spec import records_digest
-from skhybrid.experiments.free_run._family import N_SPLITS, zoo
+from skhybrid.experiments.free_run._family import (
+    N_SPLITS,
+    expose_main_functions,
+    zoo,
+)
 from skhybrid.experiments.run._fitting import interrupts_raise, physical_params
 from skhybrid.experiments.run._store import _write_atomic
 from skhybrid.model_selection import RecordBlockSplit, SimulationSearchCV
 
-__all__ = ["choose_and_refit", "expose_main_functions", "fit_model"]
+__all__ = ["choose_and_refit", "fit_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -392,26 +395,6 @@ def _n_epochs(model):
         if value is not None:
             return int(value)
     return None
-
-
-def expose_main_functions(spec):
-    """Make the spec's functions written in the user's script findable by name.
-
-    A worker process receives a physics written in the user's script
-    (``__main__``) by value, but returns its fits with the standard pickle,
-    which stores a function by module and name, and finds none of that name in
-    the worker's own ``__main__``. Named there, they go back by name and load in
-    the user's process, where they live.
-
-    Parameters
-    ----------
-    spec : SystemSpec
-        The system whose physics, inputs map and candidates are searched.
-    """
-    main = sys.modules["__main__"]
-    for name, obj in main_objects(spec.physics, spec.physics_inputs).items():
-        if not hasattr(main, name):
-            setattr(main, name, obj)
 
 
 @contextlib.contextmanager

@@ -9,7 +9,10 @@ title before any record is loaded); :func:`measured_spec` fills the
 :class:`~skhybrid.experiments.SystemSpec`'s arguments from them.
 """
 
+import textwrap
+
 from skhybrid.experiments import SystemSpec
+from skhybrid.utils._docstrings import fill_docstring
 
 __all__ = [
     "FACTS",
@@ -62,7 +65,9 @@ def fill_make_spec_docstring(doc):
     doc : str
         The docstring with the shared Parameters and Returns sections.
     """
-    return doc.replace("    %(make_spec_parameters)s", MAKE_SPEC_PARAMETERS)
+    return fill_docstring(
+        doc, make_spec_parameters=textwrap.dedent(MAKE_SPEC_PARAMETERS)
+    )
 
 
 def measured_spec(module, files, **arguments):

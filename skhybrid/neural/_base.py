@@ -1,5 +1,6 @@
 """BaseNeuralRegressor: the training protocol shared by the neural estimators."""
 
+import textwrap
 from numbers import Integral
 
 import numpy as np
@@ -20,6 +21,7 @@ from skhybrid.neural.engine import (
 )
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
+from skhybrid.utils._docstrings import fill_docstring
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -104,8 +106,10 @@ def fill_training_docstring(doc):
     doc : str
         The docstring with both sections written out.
     """
-    return doc.replace("    %(training_parameters)s", TRAINING_PARAMETERS_DOC).replace(
-        "    %(fitted_attributes)s", FITTED_ATTRIBUTES_DOC
+    return fill_docstring(
+        doc,
+        training_parameters=textwrap.dedent(TRAINING_PARAMETERS_DOC),
+        fitted_attributes=textwrap.dedent(FITTED_ATTRIBUTES_DOC),
     )
 
 

@@ -330,11 +330,18 @@ class StateSpaceHybridRegressor(
     (100, 1)
     """
 
-    #: A search fits a candidate's folds side by side in threads of one process:
-    #: their networks' steps are computed as one batched call
-    #: (:mod:`skhybrid.neural._lockstep`), their physics' free runs as one
-    #: batch (:class:`~skhybrid.model_selection.SimulationSearchCV`).
-    fits_in_lockstep = True
+    @property
+    def fits_in_lockstep(self):
+        """Whether a search fits this model's folds side by side: on a GPU.
+
+        There, in threads of one process, their networks' steps are computed
+        as one batched call (:mod:`skhybrid.neural._lockstep`), which costs
+        about one fold's where a rollout's small kernels are launch-bound
+        (:class:`~skhybrid.model_selection.SimulationSearchCV`). On a CPU the
+        batched call costs what the folds cost in turn (``docs/results.md``),
+        so the folds are spread over the search's workers instead.
+        """
+        return self.device == "cuda"
 
     _parameter_constraints = {
         "physics": [StateSpaceModel],

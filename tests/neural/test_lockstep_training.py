@@ -119,3 +119,10 @@ def test_a_member_that_fails_leaves_the_others_training(pieces):
     for i in (0, 2):
         assert outcomes[i] is members[i][0]
         assert np.isfinite(outcomes[i].loss_curve_).all()
+
+
+def test_a_search_batches_a_hybrids_folds_on_a_gpu_only():
+    # On a CPU the batched call costs what the folds cost in turn
+    # (docs/results.md): the search spreads them over its workers instead.
+    assert not _hybrid().fits_in_lockstep
+    assert _hybrid().set_params(device="cuda").fits_in_lockstep

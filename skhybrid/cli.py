@@ -387,13 +387,6 @@ class _DaskError(Exception):
     pass
 
 
-def _cuda_available():
-    """Whether torch finds a CUDA device (torch imported only when asked)."""
-    import torch
-
-    return torch.cuda.is_available()
-
-
 def _check_run_args(args):
     """One line for arguments that do not fit together, or None."""
     measured = args.system in MEASURED_SYSTEMS
@@ -412,11 +405,13 @@ def _check_run_args(args):
         )
     if args.seed is not None and args.seeds is not None:
         return "give --seeds S [S ...] once (--seed S is the same option)"
-    if args.device == "cuda" and not _cuda_available():
-        return (
-            "--device cuda: torch finds no CUDA device (torch.cuda.is_available() "
-            "is False); run on the CPU (the default)"
-        )
+    if args.device == "cuda":
+        from skhybrid.neural.engine import check_device  # imports torch
+
+        try:
+            check_device(args.device)
+        except ValueError as exc:
+            return f"--device cuda: {exc}"
     if args.seed is not None:
         args.seeds = [args.seed]
     return None

@@ -971,3 +971,18 @@ def test_the_paper_zoo_at_a_device_has_every_network_there():
     assert devices["dense"] == devices["physics+rnn (ljung-box)"] == {"cuda"}
     assert devices["ensemble"] == {"cuda"}
     assert all(found in (set(), {"cuda"}) for found in devices.values())
+
+
+@pytest.mark.skipif(
+    __import__("torch").cuda.is_available(), reason="this machine has CUDA"
+)
+def test_the_cli_refuses_device_cuda_without_a_gpu_in_one_line(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "pendulum", "--quick", "--device", "cuda", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    expected = (
+        "skhybrid: error: --device cuda: device='cuda' but torch finds no CUDA "
+        "device (torch.cuda.is_available() is False); use device='cpu'."
+    )
+    assert err == [expected]
+    assert not out.exists()

@@ -30,7 +30,6 @@ import shlex
 import numpy as np
 
 from skhybrid.experiments._registry import MEASURED_SYSTEMS, system_of
-from skhybrid.experiments._settings import DEVICES
 from skhybrid.experiments._spec import SystemSpec
 from skhybrid.experiments.free_run._identity import measured_identity
 from skhybrid.experiments.run._plan import DEFAULT_SEEDS, RunPlan, check_seeds
@@ -72,9 +71,7 @@ def _run_arguments(seeds, n_jobs, overwrite, resume, device="cpu"):
             "overwrite=True replaces the run in the folder and resume=True carries "
             "it on: pass one of them, not both."
         )
-    if device not in DEVICES:
-        raise ValueError(f"device must be one of {DEVICES}; got device={device!r}.")
-    check_device(device)
+    check_device(device)  # its value is checked by the run's settings
     return seeds, int(n_jobs)
 
 

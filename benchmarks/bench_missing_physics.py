@@ -25,10 +25,14 @@ hybrid's fit under 2 minutes on 2 cores.
 Run: ``python benchmarks/bench_missing_physics.py`` (every machine, seeds 0 1
 2); ``--machines hardening-spring dead-zone``, ``--seeds 0``, ``--n-samples``,
 ``--n-records``, ``--n-jobs`` (machines and seeds in parallel: the fit times
-are then not those of 2 idle cores).
+are then not those of 2 idle cores); ``--set PARAM=VALUE`` (repeatable) fits
+the hybrid with a parameter other than its default, as the defaults' study in
+the state-space guide did (the value is read as a Python literal:
+``--set horizon=40 --set correction_form='"rhs"'``).
 """
 
 import argparse
+import ast
 import time
 import warnings
 
@@ -49,7 +53,18 @@ def free_run_rmse(model, u, y, n_init):
     return float(np.sqrt(np.mean((sim[n_init:] - y[n_init:]) ** 2)))
 
 
-def one_run(name, seed, n_records, n_samples, noise):
+def parse_setting(text):
+    """``"PARAM=VALUE"`` as ``(PARAM, value)``, the value a Python literal."""
+    name, sep, value = text.partition("=")
+    if not sep or not name.isidentifier():
+        raise argparse.ArgumentTypeError(f"expected PARAM=VALUE; got {text!r}")
+    try:
+        return name, ast.literal_eval(value)
+    except (ValueError, SyntaxError):  # a bare word is a string
+        return name, value
+
+
+def one_run(name, seed, n_records, n_samples, noise, settings=None):
     """Fit the three models on one machine at one seed; their scores and times."""
     data = make_missing_physics(
         name,
@@ -62,7 +77,7 @@ def one_run(name, seed, n_records, n_samples, noise):
     models = {
         "physics": clone(data.physics),
         "hybrid": StateSpaceHybridRegressor(
-            clone(data.physics), n_init=k, random_state=seed
+            clone(data.physics), n_init=k, random_state=seed, **(settings or {})
         ),
         "true": clone(data.true_model),
     }
@@ -166,12 +181,23 @@ def main():
     parser.add_argument("--n-samples", type=int, default=2000)
     parser.add_argument("--noise", type=float, default=0.01)
     parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument(
+        "--set",
+        type=parse_setting,
+        action="append",
+        default=[],
+        metavar="PARAM=VALUE",
+        help="a hybrid parameter other than its default (repeatable)",
+    )
     args = parser.parse_args()
+    settings = dict(args.set)
+    if settings:
+        print(f"hybrid settings: {settings}", flush=True)
     jobs = [(m, s) for m in args.machines for s in args.seeds]
     rows = Parallel(
         n_jobs=args.n_jobs, return_as="generator", verbose=10 if args.n_jobs != 1 else 0
     )(
-        delayed(one_run)(m, s, args.n_records, args.n_samples, args.noise)
+        delayed(one_run)(m, s, args.n_records, args.n_samples, args.noise, settings)
         for m, s in jobs
     )
     done = []

@@ -142,13 +142,13 @@ class StateSpaceHybridRegressor(
     n_init : int, default=20
         Samples of the initialisation window read by the encoder in
         :meth:`fit_simulation` and :meth:`simulate`.
-    horizon : int, default=100
-        Simulated steps per training sub-sequence (``fit_simulation``). Long
-        enough for a slow mode or a latent state to show in the loss: on the
-        missing-physics suite a model trained on 20 steps simulated 20 steps
-        well and drifted in a long free run (``docs/state_space.md``, "The
-        defaults, and what they cost"). Lower it for records shorter than
-        ``n_init + horizon``.
+    horizon : int, default=20
+        Simulated steps per training sub-sequence (``fit_simulation``). With
+        ``n_augmented_states``, a horizon long enough for the latent state to
+        show in the loss: on the missing-physics suite's second mode, 100 steps
+        with two latent states came to 1.9x the true structure where 20 steps
+        kept the physics (``docs/state_space.md``, "The defaults, and what they
+        cost").
     n_steps : int, default=1
         Time steps per row of ``X`` in :meth:`fit` and :meth:`predict` (the init
         window there).
@@ -192,7 +192,7 @@ class StateSpaceHybridRegressor(
     train_physics : bool, default=True
         Train the free physical parameters jointly; ``False`` holds them at the
         values ``physics.fit_simulation`` (or ``physics.fit``) found.
-    n_augmented_states : int, default=2
+    n_augmented_states : int, default=0
         Latent states beside the physics' own, that only the networks know
         (SUBNET's black-box states, here added to a physics model): the encoder
         estimates them from the window, the correction network reads them and
@@ -200,9 +200,9 @@ class StateSpaceHybridRegressor(
         they reach the outputs only through the correction of the physics'
         states. They start at zero, so the hybrid starts as its physics. They
         carry what the physics lacks a state for: a disturbance the inputs do
-        not measure, a drift, an unmodelled mode. The default of two, chosen
-        on the missing-physics suite, costs little where the physics has every
-        state; 0 gives the physics' states alone.
+        not measure, a drift, an unmodelled mode. Where the physics has every
+        state they can cost: on a first-order toy, two made the free runs worse
+        than the physics', so none is the default.
     physics_lr : float or None, default=None
         Learning rate of the free physical parameters in the joint training;
         None trains them at ``lr``. The parameters start from a least-squares
@@ -378,7 +378,7 @@ class StateSpaceHybridRegressor(
         physics,
         *,
         n_init=20,
-        horizon=100,
+        horizon=20,
         n_steps=1,
         hidden_layer_sizes=(64, 64),
         encoder_hidden_layer_sizes=(32,),
@@ -389,7 +389,7 @@ class StateSpaceHybridRegressor(
         encoder_absolute=True,
         warm_start_physics=True,
         train_physics=True,
-        n_augmented_states=2,
+        n_augmented_states=0,
         physics_lr=None,
         validation_split="tail",
         stride="auto",

@@ -21,7 +21,12 @@ RMSE to the one-step hybrid's (issue 24: at most 1, trained in under 2 minutes o
 Run: ``python benchmarks/bench_state_space_defaults.py`` (a few minutes on 2
 cores); ``--seed`` for other records and weights.
 
-Measured (2 cores; ``--seed`` 0, 1, 2; test velocity RMSE): the state-space
+Measured at the defaults set on the missing-physics suite (``batch_size=64``,
+``physics_initial_state=False``; commit ``7ae9c86``, one thread, ``--seed`` 0,
+1, 2; test velocity RMSE): the state-space hybrid 0.0057 / 0.0056 / 0.0060 in
+39 / 49 / 51 s, the one-step hybrid 0.0072 / 0.0064 / 0.0074: 0.79 / 0.88 /
+0.81 times its error. Before, at ``batch_size=256`` and
+``physics_initial_state=True`` (2 cores): the state-space
 hybrid at its defaults 0.0054 / 0.0054 / 0.0055 in 17 / 46 / 25 s, the one-step
 hybrid 0.0075 / 0.0064 / 0.0087 (3 s), the physics alone 0.110 / 0.084 / 0.120:
 0.73 / 0.85 / 0.63 times the one-step hybrid's error. Until skhybrid 0.3 the

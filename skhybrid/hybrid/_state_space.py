@@ -146,9 +146,9 @@ class StateSpaceHybridRegressor(
         Simulated steps per training sub-sequence (``fit_simulation``). With
         ``n_augmented_states``, a horizon long enough for the latent state to
         show in the loss: on the missing-physics suite's second mode, 100 steps
-        with two latent states came to 1.9x the true structure where 20 steps
-        kept the physics (``docs/state_space.md``, "The defaults, and what they
-        cost").
+        with two latent states came to 3.3 times the true structure's free-run
+        error (seeds 0-2) where 20 steps kept the physics
+        (``docs/state_space.md``, "The defaults, and what they cost").
     n_steps : int, default=1
         Time steps per row of ``X`` in :meth:`fit` and :meth:`predict` (the init
         window there).

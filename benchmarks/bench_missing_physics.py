@@ -41,11 +41,11 @@ the state-space guide did (the value is read as a Python literal:
 """
 
 import argparse
-import ast
 import time
 import warnings
 
 import numpy as np
+from _cli import parse_setting
 from joblib import Parallel, delayed
 from sklearn.base import clone
 
@@ -60,17 +60,6 @@ FIT_LIMIT_S = 120.0
 def free_run_rmse(model, u, y, n_init):
     sim = model.simulate(u, y[:n_init])
     return float(np.sqrt(np.mean((sim[n_init:] - y[n_init:]) ** 2)))
-
-
-def parse_setting(text):
-    """``"PARAM=VALUE"`` as ``(PARAM, value)``, the value a Python literal."""
-    name, sep, value = text.partition("=")
-    if not sep or not name.isidentifier():
-        raise argparse.ArgumentTypeError(f"expected PARAM=VALUE; got {text!r}")
-    try:
-        return name, ast.literal_eval(value)
-    except (ValueError, SyntaxError):  # a bare word is a string
-        return name, value
 
 
 def one_run(name, seed, n_records, n_samples, noise, settings=None):

@@ -48,6 +48,7 @@ import time
 import warnings
 
 import numpy as np
+from _cli import parse_setting
 
 from skhybrid.domain import LinearStateSpaceModel, StateSpaceModel
 from skhybrid.hybrid import HybridBoostingRegressor, StateSpaceHybridRegressor
@@ -108,21 +109,15 @@ def rmse_v(model, u, y):
     return float(np.sqrt(np.mean((sim[:, N_INIT:, 1] - y[:, N_INIT:, 1]) ** 2)))
 
 
-def _value(text):
-    try:
-        return eval(text, {})  # numbers, tuples, True/False/None
-    except (NameError, SyntaxError):
-        return text
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    parser.add_argument(
+        "--set", type=parse_setting, action="append", default=[], metavar="NAME=VALUE"
+    )
     parser.add_argument("--only-hybrid", action="store_true")
     args = parser.parse_args()
-    settings = dict(item.split("=", 1) for item in args.set)
-    settings = {k: _value(v) for k, v in settings.items()}
+    settings = dict(args.set)
     u, y = records(60, 500, args.seed)
     u_tr, y_tr = u[:40], y[:40]
     parts = {"validation": (u[40:50], y[40:50]), "test": (u[50:], y[50:])}
@@ -138,7 +133,7 @@ def main():
             physics(), random_state=args.seed, **settings
         ).fit_simulation(u_tr, y_tr)
         label = "state-space hybrid, " + (
-            ", ".join(args.set) if args.set else "defaults"
+            ", ".join(f"{k}={v}" for k, v in args.set) if args.set else "defaults"
         )
         report(rows, label, start, hybrid, parts)
         if args.only_hybrid:

@@ -19,6 +19,7 @@ from skhybrid.domain import StateSpaceModel
 from skhybrid.hybrid._parameters import BoundedParameters
 from skhybrid.hybrid._state_space_fallback import keep_physics_if_better
 from skhybrid.hybrid._state_space_module import (
+    ACTIVATIONS,
     EncoderModule,
     StateSpaceHybridModule,
     mlp,
@@ -153,7 +154,12 @@ class StateSpaceHybridRegressor(
         Time steps per row of ``X`` in :meth:`fit` and :meth:`predict` (the init
         window there).
     hidden_layer_sizes : tuple of int, default=(64, 64)
-        Hidden layers (tanh) of the state-correction network.
+        Hidden layers of the state-correction network.
+    activation : {"tanh", "relu", "elu", "silu"}, default="tanh"
+        Activation of the correction network's hidden layers. ``"tanh"``
+        levels off outside the states and inputs it was trained on; the others
+        go on linearly there, which suits a missing term that keeps growing
+        (``docs/state_space.md``, "The defaults, and what they cost").
     encoder_hidden_layer_sizes : tuple of int, default=(32,)
         Hidden layers (tanh) of the encoder.
     correction_scale : float, default=0.1
@@ -360,6 +366,7 @@ class StateSpaceHybridRegressor(
         "n_steps": [Interval(Integral, 1, None, closed="left")],
         "hidden_layer_sizes": [tuple, list],
         "encoder_hidden_layer_sizes": [tuple, list],
+        "activation": [StrOptions(set(ACTIVATIONS))],
         "correction_scale": [Interval(Real, 0, None, closed="left")],
         "correction_form": [StrOptions({"step", "rhs"})],
         "correction_states": [list, tuple, None],
@@ -385,6 +392,7 @@ class StateSpaceHybridRegressor(
         n_steps=1,
         hidden_layer_sizes=(64, 64),
         encoder_hidden_layer_sizes=(32,),
+        activation="tanh",
         correction_scale=0.1,
         correction_form="step",
         correction_states=None,
@@ -423,6 +431,7 @@ class StateSpaceHybridRegressor(
         self.n_steps = n_steps
         self.hidden_layer_sizes = hidden_layer_sizes
         self.encoder_hidden_layer_sizes = encoder_hidden_layer_sizes
+        self.activation = activation
         self.correction_scale = correction_scale
         self.correction_form = correction_form
         self.correction_states = correction_states
@@ -542,6 +551,7 @@ class StateSpaceHybridRegressor(
                 len(self._corr_idx) + n_aug + self.n_inputs_,
                 n_states + n_aug,
                 self.hidden_layer_sizes,
+                self.activation,
             )
         # The correction starts at zero (a random start would add a drift that
         # accumulates in free run), the encoder too where it corrects the

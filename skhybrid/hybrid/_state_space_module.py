@@ -3,11 +3,15 @@
 import torch
 from torch import nn
 
-__all__ = ["EncoderModule", "StateSpaceHybridModule", "mlp"]
+__all__ = ["ACTIVATIONS", "EncoderModule", "StateSpaceHybridModule", "mlp"]
 
 
-def mlp(n_in, n_out, hidden):
-    """A float64 perceptron with tanh hidden layers.
+#: The hidden layers' activations a perceptron may have, by name.
+ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "silu": nn.SiLU}
+
+
+def mlp(n_in, n_out, hidden, activation="tanh"):
+    """A float64 perceptron.
 
     Parameters
     ----------
@@ -15,6 +19,8 @@ def mlp(n_in, n_out, hidden):
         Input and output widths.
     hidden : sequence of int
         Hidden layer widths.
+    activation : {"tanh", "relu", "elu", "silu"}, default="tanh"
+        The hidden layers' activation.
 
     Returns
     -------
@@ -23,7 +29,7 @@ def mlp(n_in, n_out, hidden):
     """
     layers, width = [], n_in
     for size in hidden:
-        layers += [nn.Linear(width, int(size)), nn.Tanh()]
+        layers += [nn.Linear(width, int(size)), ACTIVATIONS[activation]()]
         width = int(size)
     layers.append(nn.Linear(width, n_out))
     return nn.Sequential(*layers).double()

@@ -13,6 +13,7 @@ import pytest
 from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import TrainingDivergedError
 from skhybrid.hybrid import StateSpaceHybridRegressor
+from skhybrid.hybrid._state_space_module import ACTIVATIONS
 from skhybrid.preprocessing import make_windows
 
 # These tests train a few epochs on toy records to check the contract, not the
@@ -297,6 +298,7 @@ def test_predict_gives_torch_no_read_only_array(monkeypatch):
         ({"hidden_layer_sizes": (0,)}, r"hidden_layer_sizes=\(0,\)"),
         ({"horizon": 500}, r"n_init \+ horizon = 3 \+ 500"),
         ({"correction_form": "state"}, r"correction_form"),
+        ({"activation": "sigmoid"}, r"activation.*'sigmoid'"),
         ({"validation_split": "head"}, r"validation_split"),
         ({"stride": "every"}, r"stride"),
         ({"stride": 0}, r"stride"),
@@ -306,6 +308,18 @@ def test_bad_settings_raise_naming_parameter_and_value(kwargs, match):
     u, y = _records()
     with pytest.raises(ValueError, match=match):
         _model(**kwargs).fit_simulation(u, y)
+
+
+@pytest.mark.parametrize("activation", ["relu", "elu", "silu"])
+def test_activation_is_the_correction_networks(activation):
+    u, y = _records()
+    model = _model(activation=activation, max_epochs=2).fit_simulation(u, y)
+    correction = model.module_.correction
+    kinds = {type(layer).__name__ for layer in correction}
+    assert kinds == {"Linear", ACTIVATIONS[activation].__name__}
+    # The encoder keeps its tanh; only the correction's hidden layers change.
+    assert "Tanh" in {type(layer).__name__ for layer in model.module_.encoder}
+    assert np.all(np.isfinite(model.simulate(u, y[:, :3])))
 
 
 def test_solve_ivp_physics_is_rejected():

@@ -85,13 +85,20 @@ def keep_physics_if_better(est, net, start, monitored):
             if physics_only
             else "it keeps its start (the physics with a zero correction)"
         )
+        latent = (
+            ""
+            if est.n_augmented_states
+            else "; where the physics may lack a state (an unmodelled mode, a "
+            "flexible coupling), latent states on a long horizon "
+            "(n_augmented_states=2, horizon=100)"
+        )
         warnings.warn(
             f"the correction of {type(est).__name__} did not improve on its physics "
             f"on its {where} (loss {kept:.4g} at the best of {est.n_epochs_} "
             f"epochs, epoch {est.best_epoch_}, against the physics' {physics:.4g}): "
             f"{ends}, and correction_helped_ is False. The physics may already "
             "explain the records to their noise; otherwise try another horizon, "
-            "a lower lr or more records.",
+            f"a lower lr or more records{latent}.",
             UnhelpfulCorrectionWarning,
             stacklevel=4,
         )

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from sklearn.base import clone
 
 from skhybrid.domain import StateSpaceModel
 from skhybrid.exceptions import TrainingDivergedError
@@ -581,9 +582,16 @@ def test_a_correction_that_cannot_help_leaves_the_physics(physics_initial_state)
         physics_initial_state=physics_initial_state,
         encoder_epochs=2,
     )
-    with pytest.warns(UnhelpfulCorrectionWarning, match="correction_helped_ is False"):
+    # Without latent states the warning points to them, with them it does not.
+    with pytest.warns(
+        UnhelpfulCorrectionWarning,
+        match=r"correction_helped_ is False.*latent states.*n_augmented_states=2",
+    ):
         model.fit_simulation(u, y)
     assert model.correction_helped_ is False
+    with pytest.warns(UnhelpfulCorrectionWarning) as record:
+        clone(model).set_params(n_augmented_states=1).fit_simulation(u, y)
+    assert not any("n_augmented_states=2" in str(w.message) for w in record)
     assert model.validation_loss_ <= model.physics_validation_loss_
     # On its validation pieces (the last 20 % of every record, simulated from
     # their first n_init samples) the hybrid is no worse than its physics.

@@ -20,6 +20,7 @@ from skhybrid.preprocessing import (
     step_width,
 )
 from skhybrid.simulation import SimulatorMixin
+from skhybrid.utils._lockstep import parts_fit_in_lockstep
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -400,6 +401,23 @@ class HybridBoostingRegressor(
                 "single", self, names=type(self).__name__, name_details=str(self)
             )
         return visual_block("serial", blocks, dash_wrapped=False)
+
+    @property
+    def fits_in_lockstep(self):
+        """Whether a search fits this model's folds side by side.
+
+        Where every stage that says whether it fits in lockstep says yes (a
+        network on a GPU, see
+        :attr:`skhybrid.neural.DenseRegressor.fits_in_lockstep`) and one does,
+        the folds' fits run in threads of one process, their networks trained
+        as one batched call; a physics fitted by least squares fits in each
+        fold's thread as it would alone.
+        """
+        try:
+            estimators = [estimator for _, estimator in self.stages]
+        except (TypeError, ValueError):  # not (name, estimator) pairs: fit says
+            return False
+        return parts_fit_in_lockstep(estimators)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

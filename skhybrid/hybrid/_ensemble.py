@@ -252,6 +252,22 @@ class HybridEnsembleRegressor(
         self.weight_decay = weight_decay
         self.warm_start_domain = warm_start_domain
 
+    @property
+    def fits_in_lockstep(self):
+        """Whether a search fits this model's folds side by side: on a GPU.
+
+        Where ``device="cuda"`` and ``neural``'s network can be batched (a
+        :class:`~skhybrid.neural.DenseRegressor`'s, see
+        :attr:`skhybrid.neural.DenseRegressor.fits_in_lockstep`), the folds'
+        fits run in threads of one process, each warm-starting its own physics,
+        and their joint modules (physics and network) train as one batched
+        call.
+        """
+        # neural supplies the architecture only: its device is not used.
+        return self.device == "cuda" and getattr(
+            self.neural, "_module_in_lockstep", False
+        )
+
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
@@ -563,6 +579,29 @@ class HybridModule(nn.Module):
         physics = self.domain.torch_forward(X, self.theta())
         return physics / self.y_scale + self.net((X - self.x_mean) / self.x_scale)
 
+    def lockstep_signature(self):
+        """What its forward pass reads besides its tensors, or None.
+
+        The physics' equations, settings and fixed parameter values (the free
+        ones are its tensors), and the network's signature; None (each member
+        alone) where the network has none (see :mod:`skhybrid.neural._lockstep`).
+        """
+        net = getattr(self.net, "lockstep_signature", lambda: None)()
+        if net is None:
+            return None
+        domain = self.domain
+        settings = sorted(
+            (name, repr(value))
+            for name, value in domain.get_params(deep=False).items()
+            if name != "params"
+        )
+        fixed = sorted(
+            (name, repr(value))
+            for name, value in domain.params_.items()
+            if name not in domain.free_params_
+        )
+        return repr((type(domain), settings, sorted(domain.params_), fixed, net))
+
 
 class HybridRollout(nn.Module):
     """Simulates ``horizon`` steps through a :class:`HybridModule`, for training.
@@ -614,6 +653,12 @@ class HybridRollout(nn.Module):
                 state = pred * self.hybrid.y_scale
                 X = self.layout.shift(X, state, U[:, k] if U.shape[2] else None)
         return torch.cat(preds, dim=1)
+
+    def lockstep_signature(self):
+        """The layout, horizon and hybrid's signature, or None (see
+        :meth:`HybridModule.lockstep_signature`)."""
+        hybrid = self.hybrid.lockstep_signature()
+        return None if hybrid is None else (repr(self.layout), self.horizon, hybrid)
 
 
 def _std_dict(domain, std, free):

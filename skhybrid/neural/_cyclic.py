@@ -76,6 +76,8 @@ class CyclicRegressor(BaseNeuralRegressor):
     (2, 1)
     """
 
+    _module_in_lockstep = True
+
     _parameter_constraints = {
         **BaseNeuralRegressor._parameter_constraints,
         "hidden_layer_sizes": ["array-like"],

@@ -83,6 +83,8 @@ class DenseRegressor(BaseNeuralRegressor):
     True
     """
 
+    _module_in_lockstep = True
+
     _parameter_constraints = {
         **BaseNeuralRegressor._parameter_constraints,
         "hidden_layer_sizes": ["array-like"],

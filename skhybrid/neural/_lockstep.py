@@ -10,6 +10,13 @@ the requests whose modules have the same structure are computed in one call,
 flow back to its own weights); the backward passes that follow are then run
 as one. A member's results are those it gets alone, up to floating point.
 
+Batch normalisation takes part: the members' running statistics are passed
+stacked, updated in place by the batched call (``torch.func`` allows an
+in-place write to a tensor batched like the input), and each member's slice is
+copied back into its own module. A layer that normalises by its batch's
+statistics must see the member's own rows only, so such members are computed
+together only with members whose batch has as many rows (never padded).
+
 The gain is the hardware's: a rollout of a small network is thousands of tiny
 operations, launch-bound on a GPU, so that several members cost about one
 there; on a CPU the operations are larger and the gain smaller.
@@ -29,33 +36,45 @@ __all__ = ["Backward", "Forward", "lockstep_backward", "lockstep_infer"]
 _UNBATCHABLE = set()
 
 
-def _batchable(module):
-    """Whether members of ``module``'s structure may be computed as one.
-
-    A module opts in with ``lockstep_signature()``, which returns what else
-    (besides its class, layers and tensors' shapes) must agree between two
-    members: the attributes its forward pass reads that are not tensors.
-    Batch normalisation updates its running statistics in place while it
-    trains, which a batched call cannot do for each member.
-    """
-    return hasattr(module, "lockstep_signature") and not any(
-        isinstance(m, torch.nn.modules.batchnorm._BatchNorm) for m in module.modules()
-    )
+def _batch_norms(module):
+    """``module``'s batch-normalisation layers, by name."""
+    return {
+        name: m
+        for name, m in module.named_modules()
+        if isinstance(m, torch.nn.modules.batchnorm._BatchNorm)
+    }
 
 
 def _signature(module, x, grad):
-    """What must agree for two members' forward passes to run as one call."""
+    """What must agree for two members' forward passes to run as one call.
+
+    A module opts in with ``lockstep_signature()``, which returns what else
+    (besides its class, layers and tensors' shapes) must agree between two
+    members: the attributes its forward pass reads that are not tensors. A
+    module without it, or whose signature is None (a wrapper around a module
+    without one), runs alone: its signature is None.
+    """
+    opted_in = getattr(module, "lockstep_signature", None)
+    own = None if opted_in is None else opted_in()
+    if own is None:
+        return None
     tensors = chain(module.named_parameters(), module.named_buffers())
+    # A batch-norm layer in training mode normalises by its batch's statistics
+    # (and updates its running statistics from them): a member's batch is
+    # then never padded, and only batches of one length are computed as one.
+    batch_statistics = tuple(m.training for m in _batch_norms(module).values())
     return (
         type(module),
         repr(module),
         tuple((n, tuple(t.shape), t.dtype, str(t.device)) for n, t in tensors),
         tuple(x.shape[1:]),
+        len(x) if any(batch_statistics) else None,
         x.dtype,
         str(x.device),
         bool(grad),
         module.training,
-        module.lockstep_signature(),
+        batch_statistics,
+        own,
     )
 
 
@@ -90,10 +109,9 @@ class Forward:
         """
         groups = {}
         for i, request in enumerate(requests):
-            key = ("alone", i)
-            if _batchable(request.module):
-                key = _signature(request.module, request.x, request.grad)
-                key = ("alone", i) if key in _UNBATCHABLE else key
+            key = _signature(request.module, request.x, request.grad)
+            if key is None or key in _UNBATCHABLE:
+                key = ("alone", i)
             groups.setdefault(key, []).append(i)
         outputs = [None] * len(requests)
         for key, members in groups.items():
@@ -115,8 +133,11 @@ def _forward_group(key, requests):
     """The outputs of requests of one structure: one batched call, or each alone.
 
     Each member's rows are padded (its first rows repeated) to the longest
-    batch's; the padding's outputs are dropped. Where the batched call
-    raises (an operation ``vmap`` cannot batch), each runs alone.
+    batch's; the padding's outputs are dropped (members whose batch-norm
+    layers use their batch's statistics all have as many rows, see
+    :func:`_signature`). Running statistics updated by the call are copied
+    back into each member's module. Where the batched call raises (an
+    operation ``vmap`` cannot batch), each runs alone.
     """
     if len(requests) == 1:
         return [_alone(requests[0])]
@@ -143,7 +164,37 @@ def _forward_group(key, requests):
     except Exception:  # noqa: BLE001 - not batchable: each member alone
         _UNBATCHABLE.add(key)
         return [_alone(r) for r in requests]
-    return [out[i, : len(r.x)] for i, r in enumerate(requests)]
+    _keep_running_statistics(requests, bufs)
+    return [_member_output(out, i, len(r.x)) for i, r in enumerate(requests)]
+
+
+def _running_statistics(module):
+    """Names of the buffers ``module``'s forward pass updates in training mode."""
+    return [
+        f"{name}.{b}" if name else b
+        for name, layer in _batch_norms(module).items()
+        if layer.training
+        for b, _ in layer.named_buffers(recurse=False)
+    ]
+
+
+def _keep_running_statistics(requests, bufs):
+    """Copy each member's slice of the updated stacked buffers into its module."""
+    updated = _running_statistics(requests[0].module)
+    if not updated:
+        return
+    with torch.no_grad():
+        for i, request in enumerate(requests):
+            own = dict(request.module.named_buffers())
+            for name in updated:
+                own[name].copy_(bufs[name][i])
+
+
+def _member_output(out, i, rows):
+    """Member ``i``'s first ``rows`` rows of a batched output (or of each part)."""
+    if isinstance(out, tuple):
+        return tuple(_member_output(part, i, rows) for part in out)
+    return out[i, :rows]
 
 
 def _pad(x, rows):

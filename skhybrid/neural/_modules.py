@@ -50,6 +50,14 @@ class MLPModule(nn.Module):
     def forward(self, X):
         return self.layers(X)
 
+    def lockstep_signature(self):
+        """What its forward pass reads besides its layers: nothing.
+
+        Members of one structure train as one batched call where fits run in
+        lockstep (:mod:`skhybrid.neural._lockstep`).
+        """
+        return ()
+
 
 class RecurrentModule(nn.Module):
     """A recurrent network over the time steps of a row, linear head on the last one.
@@ -59,6 +67,11 @@ class RecurrentModule(nn.Module):
     features go through batch norm (statistics shared across steps), then the
     stacked recurrent layers; a linear layer maps the hidden state after the newest
     step to the outputs.
+
+    It has no ``lockstep_signature``: members of fits run in lockstep train
+    one by one (:mod:`skhybrid.neural._lockstep`), as ``torch.func.vmap`` has
+    no batching rule for torch's recurrent layers (``aten::gru`` and the
+    others, on CPU and GPU alike).
 
     Parameters
     ----------
@@ -125,6 +138,13 @@ class CyclicModule(nn.Module):
         """Decode (standardised) outputs back to (standardised) inputs."""
         return self.decoder(y)
 
+    def lockstep_signature(self):
+        """What its forward pass reads besides its layers: nothing.
+
+        See :meth:`MLPModule.lockstep_signature`.
+        """
+        return ()
+
 
 class CycleTrainingModule(nn.Module):
     """What skorch trains for a :class:`CyclicModule`: both halves in one pass.
@@ -142,6 +162,13 @@ class CycleTrainingModule(nn.Module):
     def forward(self, X):
         y_hat = self.cyclic.encoder(X)
         return y_hat, self.cyclic.decoder(y_hat), X
+
+    def lockstep_signature(self):
+        """What its forward pass reads besides its layers: nothing.
+
+        See :meth:`MLPModule.lockstep_signature`.
+        """
+        return ()
 
 
 class ObjectiveLoss(nn.Module):
@@ -388,3 +415,15 @@ class RolloutModule(nn.Module):
                 raw = self.layout.shift(raw, state, U[:, k] if U.shape[2] else None)
                 X = (raw - self.x_mean) / self.x_scale
         return torch.cat(preds, dim=1)
+
+    def lockstep_signature(self):
+        """What its forward pass reads besides its tensors, or None.
+
+        The layout, horizon and target, and the network's own signature; None
+        (each member alone) where the network has none. See
+        :meth:`MLPModule.lockstep_signature`.
+        """
+        net = getattr(self.net, "lockstep_signature", lambda: None)()
+        if net is None:
+            return None
+        return (repr(self.layout), self.horizon, self.increment, net)

@@ -14,7 +14,7 @@ import contextvars
 import threading
 import warnings
 
-__all__ = ["Lockstep", "current_member", "run_in_lockstep"]
+__all__ = ["Lockstep", "current_member", "parts_fit_in_lockstep", "run_in_lockstep"]
 
 #: ``(lockstep, member)`` of the fit running in this thread, or None.
 _MEMBER = contextvars.ContextVar("skhybrid_lockstep_member", default=None)
@@ -152,3 +152,25 @@ def run_in_lockstep(models, fit):
         warnings.showwarning = showwarning
         warnings._filters_mutated()
     return outcomes
+
+
+def parts_fit_in_lockstep(parts):
+    """Whether a model made of ``parts`` fits in lockstep: each part that says does.
+
+    A part says so with its ``fits_in_lockstep`` (a network of
+    :mod:`skhybrid.neural`: on a GPU; a :class:`~skhybrid.domain.StateSpaceModel`:
+    always). A part that does not say (a physics fitted by least squares, a
+    linear stage) fits in its thread as it would alone, and neither gains nor
+    costs. At least one part must say yes, or nothing would be batched.
+
+    Parameters
+    ----------
+    parts : iterable of estimator
+        The model's parts (a hybrid's stages).
+
+    Returns
+    -------
+    in_lockstep : bool
+    """
+    said = [bool(p.fits_in_lockstep) for p in parts if hasattr(p, "fits_in_lockstep")]
+    return bool(said) and all(said)

@@ -277,7 +277,8 @@ class ZooModel:
         ``lockstep(ctx)`` says whether the model's fits on a search's folds
         gain from running side by side, their free runs simulated as one
         batch (a physics that is a
-        :class:`~skhybrid.domain.StateSpaceModel`); None: they do not.
+        :class:`~skhybrid.domain.StateSpaceModel`) or their networks' steps
+        computed as one (on a GPU); None: they do not.
     """
 
     fit: object
@@ -487,7 +488,11 @@ def _fit_correction(make_regressor, n, U, Y, ctx, deps, start):
 
 
 def _on_a_gpu(ctx):
-    """Whether the state-space hybrid's folds train in lockstep: on a GPU."""
+    """Whether a model's networks train their folds in lockstep: on a GPU.
+
+    The rule of the networks' own ``fits_in_lockstep`` (the state-space
+    hybrid's, :attr:`skhybrid.neural.DenseRegressor.fits_in_lockstep`).
+    """
     return ctx.device == "cuda"
 
 
@@ -666,6 +671,7 @@ def zoo(system, quick=False):
             choice="n",
             notes={"window": "the linear ARX's"},
             epochs=_one_dense_epochs,
+            lockstep=_on_a_gpu,
         ),
         "physics + linear": ZooModel(
             partial(_fit_correction, _correction_ridge),
@@ -680,6 +686,7 @@ def zoo(system, quick=False):
             requires=("physics",),
             choice="n",
             epochs=_correction_dense_epochs,
+            lockstep=_on_a_gpu,
         ),
         "physics + dense ensemble": ZooModel(
             partial(_fit_correction, _dense_ensemble),
@@ -691,6 +698,7 @@ def zoo(system, quick=False):
                 "networks": f"{ENSEMBLE_SIZE} dense networks averaged",
             },
             epochs=_ensemble_epochs,
+            lockstep=_on_a_gpu,
         ),
     }
     if system.has_hybrids(quick):

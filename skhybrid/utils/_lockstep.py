@@ -86,7 +86,8 @@ class Lockstep:
 
         Requests of one type are handed together to that type's
         ``simulate_many(requests)``, which returns one result (or exception)
-        per request.
+        per request; where it raises, every one of them gets the exception
+        (the other members would otherwise wait for results that never come).
         """
         members = list(self._pending)
         requests = [self._pending.pop(m) for m in members]
@@ -94,7 +95,10 @@ class Lockstep:
         for member, request in zip(members, requests, strict=True):
             by_type.setdefault(type(request), []).append((member, request))
         for kind, pairs in by_type.items():
-            results = kind.simulate_many([request for _, request in pairs])
+            try:
+                results = kind.simulate_many([request for _, request in pairs])
+            except Exception as exc:  # noqa: BLE001 - handed to each member
+                results = [exc] * len(pairs)
             self._results.update(zip((m for m, _ in pairs), results, strict=True))
         self._cond.notify_all()
 

@@ -907,7 +907,7 @@ def hybrid_settings(horizon, hidden, **extra):
 
     The training settings are written out (``lr=0.01``, ``batch_size=256``,
     at most 200 epochs, no augmented states, the encoder correcting the
-    physics' state estimate), chosen on validation only on
+    physics' state estimate, a tanh correction), chosen on validation only on
     ``benchmarks/bench_state_space_defaults.py`` and the built-in benchmarks
     (the benchmark log, ``benchmarks/LOG.md``, has the figures); the hybrid's
     own defaults, since set on the missing-physics suite, do not move the
@@ -938,6 +938,7 @@ def hybrid_settings(horizon, hidden, **extra):
         "validation_fraction": 0.2,
         "n_augmented_states": 0,
         "physics_initial_state": True,
+        "activation": "tanh",
     }
     settings.update(extra)
     return settings

@@ -392,7 +392,7 @@ class StateSpaceHybridRegressor(
         n_steps=1,
         hidden_layer_sizes=(64, 64),
         encoder_hidden_layer_sizes=(32,),
-        activation="tanh",
+        activation="silu",
         correction_scale=0.1,
         correction_form="step",
         correction_states=None,

@@ -531,8 +531,12 @@ def test_simulate_from_state_starts_as_its_physics_and_keeps_its_correction():
         physics.set_params(params=untrained.params_).simulate_from_state(ut, start),
         atol=1e-9,
     )
-    # Trained, the run from the state carries the correction.
-    model = _model(max_epochs=40, lr=3e-3, horizon=10, patience=40).fit_simulation(u, y)
+    # Trained, the run from the state carries the correction. (The missing
+    # term is a bounded sine, which tanh fits in 40 epochs better than the
+    # default SiLU: 0.60 against 0.75 of the physics' error.)
+    model = _model(
+        max_epochs=40, lr=3e-3, horizon=10, patience=40, activation="tanh"
+    ).fit_simulation(u, y)
     fitted = _physics(n_init=3).fit_simulation(u, y)
 
     def rmse(sim):

@@ -22,13 +22,13 @@ hybrid at most 2x the true structure on the median machine and 4x on the
 worst, never above its physics; beyond, at most 5x on the median machine; the
 hybrid's fit under 2 minutes on 2 cores.
 
-Measured (``--n-jobs 2``, commit ``7ae9c86``, 2 cores, 6 min 53 s; the
+Measured (``--n-jobs 2``, commit ``f7f3e13``, 2 cores, 5 min 37 s; the
 results page has the table): the hybrid at its defaults, over the true
-structure inside the training amplitude, 1.57x (saturating actuator) to 4.67x
-(hardening spring) where the physics has every state, 10.5x on the second mode
-(where it stays its physics), 2.83x on the median machine; beyond it 15.2x on
-the median machine; never above its physics inside; fits of 12-89 s. The
-defaults' study, one ``--set`` per row, is in the state-space guide ("The
+structure inside the training amplitude, 1.26x (saturating actuator) to 2.78x
+(Stribeck friction) where the physics has every state, 10.5x on the second
+mode (where it stays its physics), 2.40x on the median machine; beyond it
+8.74x on the median machine; never above its physics inside; fits of 11-75 s.
+The defaults' study, one ``--set`` per row, is in the state-space guide ("The
 defaults, and what they cost").
 
 Run: ``python benchmarks/bench_missing_physics.py`` (every machine, seeds 0 1

@@ -22,10 +22,12 @@ Run: ``python benchmarks/bench_state_space_defaults.py`` (a few minutes on 2
 cores); ``--seed`` for other records and weights.
 
 Measured at the defaults set on the missing-physics suite (``batch_size=64``,
-``physics_initial_state=False``; commit ``7ae9c86``, one thread, ``--seed`` 0,
-1, 2; test velocity RMSE): the state-space hybrid 0.0057 / 0.0056 / 0.0060 in
-39 / 49 / 51 s, the one-step hybrid 0.0072 / 0.0064 / 0.0074: 0.79 / 0.88 /
-0.81 times its error. Before, at ``batch_size=256`` and
+``physics_initial_state=False``, ``activation="silu"``; commit ``671c258``,
+one thread, ``--seed`` 0, 1, 2; test velocity RMSE): the state-space hybrid
+0.0052 / 0.0061 / 0.0060 in 37 / 32 / 31 s, the one-step hybrid 0.0072 /
+0.0064 / 0.0074: 0.73 / 0.96 / 0.81 times its error. With a tanh correction
+(commit ``7ae9c86``): 0.0057 / 0.0056 / 0.0060 in 39 / 49 / 51 s, 0.79 / 0.88
+/ 0.81. Before, at ``batch_size=256`` and
 ``physics_initial_state=True`` (2 cores): the state-space
 hybrid at its defaults 0.0054 / 0.0054 / 0.0055 in 17 / 46 / 25 s, the one-step
 hybrid 0.0075 / 0.0064 / 0.0087 (3 s), the physics alone 0.110 / 0.084 / 0.120:

@@ -234,9 +234,9 @@ class BaseNeuralRegressor(
         data, weights, optimiser, early stopping and schedule, and each getting
         what it gets alone up to floating point; a step of all of them costs
         about one where small kernels are launch-bound. On a CPU the batched
-        call is slower than the folds in turn (four dense folds on one thread:
-        1.1 to 1.6 times their time in turn), so the folds are spread over the
-        search's workers instead. A network that cannot be batched (the
+        call was slower than the folds in turn (a scratch measurement of four
+        dense folds on one thread), so the folds are spread over the search's
+        workers instead. A network that cannot be batched (the
         recurrent layers of :class:`~skhybrid.neural.RNNRegressor`) never
         fits in lockstep.
         """

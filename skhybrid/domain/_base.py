@@ -18,6 +18,7 @@ from skhybrid.losses import OBJECTIVES, objective_residuals
 from skhybrid.preprocessing import step_width
 from skhybrid.simulation import SimulatorMixin
 from skhybrid.utils._array_api import get_namespace
+from skhybrid.utils._lockstep import FORWARD_MODE
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -439,7 +440,8 @@ class DomainModel(
         def jac(theta):
             t = torch.as_tensor(np.asarray(theta, dtype=np.float64))
             # Forward mode: one pass per parameter, far fewer than residuals.
-            return torch.func.jacfwd(fun)(t).detach().numpy()
+            with FORWARD_MODE:
+                return torch.func.jacfwd(fun)(t).detach().numpy()
 
         return jac
 

@@ -22,6 +22,7 @@ from skhybrid.neural.engine import (
 )
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
+from skhybrid.utils._lockstep import FORWARD_MODE
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
@@ -450,7 +451,8 @@ class HybridEnsembleRegressor(
 
         t = torch.as_tensor(theta)
         # Forward mode: one pass per parameter rather than one per residual.
-        J = torch.func.jacfwd(residual)(t).detach().numpy()
+        with FORWARD_MODE:
+            J = torch.func.jacfwd(residual)(t).detach().numpy()
         r = residual(t).detach().numpy()
         dof = r.size - theta.size
         s2 = float(r @ r) / dof if dof > 0 else np.inf

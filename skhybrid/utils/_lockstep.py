@@ -14,10 +14,22 @@ import contextvars
 import threading
 import warnings
 
-__all__ = ["Lockstep", "current_member", "parts_fit_in_lockstep", "run_in_lockstep"]
+__all__ = [
+    "FORWARD_MODE",
+    "Lockstep",
+    "current_member",
+    "parts_fit_in_lockstep",
+    "run_in_lockstep",
+]
 
 #: ``(lockstep, member)`` of the fit running in this thread, or None.
 _MEMBER = contextvars.ContextVar("skhybrid_lockstep_member", default=None)
+
+#: Held around a forward-mode Jacobian (``torch.func.jacfwd``). torch's
+#: forward-mode levels are the process's, not a thread's: two fits in lockstep
+#: threads taking one at once (members finishing on the same step) tear down
+#: each other's ("Trying to access a forward AD level with an invalid index").
+FORWARD_MODE = threading.Lock()
 
 
 def current_member():

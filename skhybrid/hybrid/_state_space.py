@@ -155,6 +155,8 @@ class StateSpaceHybridRegressor(
         window there).
     hidden_layer_sizes : tuple of int, default=(64, 64)
         Hidden layers of the state-correction network.
+    encoder_hidden_layer_sizes : tuple of int, default=(32,)
+        Hidden layers (tanh) of the encoder.
     activation : {"tanh", "relu", "elu", "silu"}, default="silu"
         Activation of the correction network's hidden layers. SiLU (and ELU,
         ReLU) go on linearly outside the states and inputs the network was
@@ -163,8 +165,6 @@ class StateSpaceHybridRegressor(
         SiLU came nearer the true structure on the missing-physics suite,
         inside the training amplitude and beyond it (``docs/state_space.md``,
         "The defaults, and what they cost").
-    encoder_hidden_layer_sizes : tuple of int, default=(32,)
-        Hidden layers (tanh) of the encoder.
     correction_scale : float, default=0.1
         Factor ``c`` of the correction network's output, in units of each
         state's typical change per sample.

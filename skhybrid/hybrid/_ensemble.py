@@ -11,6 +11,7 @@ from torch import nn
 
 from skhybrid.domain import DomainModel
 from skhybrid.hybrid._parameters import BoundedParameters
+from skhybrid.neural._lockstep import physics_signature
 from skhybrid.neural.engine import (
     check_device,
     check_time_ordered_rows,
@@ -591,18 +592,7 @@ class HybridModule(nn.Module):
         net = getattr(self.net, "lockstep_signature", lambda: None)()
         if net is None:
             return None
-        domain = self.domain
-        settings = sorted(
-            (name, repr(value))
-            for name, value in domain.get_params(deep=False).items()
-            if name != "params"
-        )
-        fixed = sorted(
-            (name, repr(value))
-            for name, value in domain.params_.items()
-            if name not in domain.free_params_
-        )
-        return repr((type(domain), settings, sorted(domain.params_), fixed, net))
+        return repr((*physics_signature(self.domain), net))
 
 
 class HybridRollout(nn.Module):

@@ -3,6 +3,8 @@
 import torch
 from torch import nn
 
+from skhybrid.neural._lockstep import physics_signature
+
 __all__ = ["ACTIVATIONS", "EncoderModule", "StateSpaceHybridModule", "mlp"]
 
 
@@ -141,24 +143,9 @@ class StateSpaceHybridModule(nn.Module):
         The settings the forward pass reads, and the physics' equations and
         fixed parameter values (see :mod:`skhybrid.neural._lockstep`).
         """
-        physics = self.physics
-        # Its settings but the starting values (each fold starts from its own).
-        settings = sorted(
-            (name, repr(value))
-            for name, value in physics.get_params(deep=False).items()
-            if name != "params"
-        )
-        fixed = sorted(
-            (name, repr(value))
-            for name, value in physics.params_.items()
-            if name not in physics.free_params_
-        )
         return repr(
             (
-                type(physics),
-                settings,
-                sorted(physics.params_),
-                fixed,
+                *physics_signature(self.physics),
                 self.physics_only,
                 self.n_init,
                 self.n_outputs,

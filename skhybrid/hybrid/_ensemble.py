@@ -11,7 +11,6 @@ from torch import nn
 
 from skhybrid.domain import DomainModel
 from skhybrid.hybrid._parameters import BoundedParameters
-from skhybrid.neural._lockstep import physics_signature
 from skhybrid.neural.engine import (
     check_device,
     check_time_ordered_rows,
@@ -23,7 +22,7 @@ from skhybrid.neural.engine import (
 )
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import SimulatorMixin
-from skhybrid.utils._lockstep import FORWARD_MODE
+from skhybrid.utils._lockstep import FORWARD_MODE, physics_signature
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     HasMethods,

@@ -3,7 +3,7 @@
 import torch
 from torch import nn
 
-from skhybrid.neural._lockstep import physics_signature
+from skhybrid.utils._lockstep import physics_signature
 
 __all__ = ["ACTIVATIONS", "EncoderModule", "StateSpaceHybridModule", "mlp"]
 

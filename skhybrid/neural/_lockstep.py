@@ -29,13 +29,7 @@ from torch.func import functional_call, vmap
 
 from skhybrid.utils._lockstep import current_member
 
-__all__ = [
-    "Backward",
-    "Forward",
-    "lockstep_backward",
-    "lockstep_infer",
-    "physics_signature",
-]
+__all__ = ["Backward", "Forward", "lockstep_backward", "lockstep_infer"]
 
 
 #: Signatures whose batched call raised once: their members run alone.
@@ -280,32 +274,3 @@ def lockstep_backward(loss):
         return
     lockstep, i = member
     lockstep.evaluate(i, Backward(loss))
-
-
-def physics_signature(physics):
-    """What of a fitted physics a module's forward pass reads besides its tensors.
-
-    Its class, its settings but the starting values (each member starts from
-    its own), its parameters' names and its fixed parameters' values: part of
-    the :meth:`lockstep_signature` of a module that runs a physics.
-
-    Parameters
-    ----------
-    physics : skhybrid.domain.DomainModel
-        Fitted (``params_`` and ``free_params_`` set).
-
-    Returns
-    -------
-    signature : tuple
-    """
-    settings = sorted(
-        (name, repr(value))
-        for name, value in physics.get_params(deep=False).items()
-        if name != "params"
-    )
-    fixed = sorted(
-        (name, repr(value))
-        for name, value in physics.params_.items()
-        if name not in physics.free_params_
-    )
-    return (type(physics), settings, sorted(physics.params_), fixed)

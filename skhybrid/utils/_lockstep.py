@@ -19,6 +19,7 @@ __all__ = [
     "Lockstep",
     "current_member",
     "parts_fit_in_lockstep",
+    "physics_signature",
     "run_in_lockstep",
 ]
 
@@ -190,3 +191,32 @@ def parts_fit_in_lockstep(parts):
     """
     said = [bool(p.fits_in_lockstep) for p in parts if hasattr(p, "fits_in_lockstep")]
     return bool(said) and all(said)
+
+
+def physics_signature(physics):
+    """What of a fitted physics a module's forward pass reads besides its tensors.
+
+    Its class, its settings but the starting values (each member starts from
+    its own), its parameters' names and its fixed parameters' values: part of
+    the :meth:`lockstep_signature` of a module that runs a physics.
+
+    Parameters
+    ----------
+    physics : skhybrid.domain.DomainModel
+        Fitted (``params_`` and ``free_params_`` set).
+
+    Returns
+    -------
+    signature : tuple
+    """
+    settings = sorted(
+        (name, repr(value))
+        for name, value in physics.get_params(deep=False).items()
+        if name != "params"
+    )
+    fixed = sorted(
+        (name, repr(value))
+        for name, value in physics.params_.items()
+        if name not in physics.free_params_
+    )
+    return (type(physics), settings, sorted(physics.params_), fixed)

@@ -406,18 +406,20 @@ class HybridBoostingRegressor(
     def fits_in_lockstep(self):
         """Whether a search fits this model's folds side by side.
 
-        Where every stage that says whether it fits in lockstep says yes (a
-        network on a GPU, see
-        :attr:`skhybrid.neural.DenseRegressor.fits_in_lockstep`) and one does,
-        the folds' fits run in threads of one process, their networks trained
-        as one batched call; a physics fitted by least squares fits in each
-        fold's thread as it would alone.
+        Where a stage is a network on a GPU and every stage that says whether
+        it fits in lockstep says yes (see
+        :attr:`skhybrid.neural.DenseRegressor.fits_in_lockstep`), the folds'
+        fits run in threads of one process, their networks trained as one
+        batched call; a physics fitted by least squares fits in each fold's
+        thread as it would alone. Without a network on a GPU (a physics and a
+        linear stage) the folds are spread over the search's workers.
         """
         try:
             estimators = [estimator for _, estimator in self.stages]
         except (TypeError, ValueError):  # not (name, estimator) pairs: fit says
             return False
-        return parts_fit_in_lockstep(estimators)
+        on_gpu = any(getattr(e, "device", None) == "cuda" for e in estimators)
+        return on_gpu and parts_fit_in_lockstep(estimators)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -20,8 +20,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
+from sklearn.linear_model import Ridge
 
-from skhybrid.domain import LinearStateSpaceModel, ParametricModel
+from skhybrid.domain import LinearStateSpaceModel, ParametricModel, StateSpaceModel
 from skhybrid.experiments.free_run._family import zoo
 from skhybrid.hybrid import HybridBoostingRegressor, HybridEnsembleRegressor
 from skhybrid.neural import CyclicRegressor, DenseRegressor, RNNRegressor, _lockstep
@@ -221,6 +222,17 @@ def test_the_dense_networks_and_their_hybrids_fit_in_lockstep_on_a_gpu_only():
     rnn = ("rnn", _network(RNNRegressor).set_params(device="cuda"))
     assert not hybrid.set_params(stages=[*hybrid.stages, rnn]).fits_in_lockstep
     assert not HybridBoostingRegressor([hybrid.stages[0]]).fits_in_lockstep
+    # A physics whose own fits batch and a linear stage: no network on a GPU.
+    physics = StateSpaceModel(
+        lambda x, u, *, xp, a: a * x + u,
+        {"a": 0.5},
+        state_names=["x"],
+        observed=["x"],
+        time="discrete",
+    )
+    physics_and_ridge = [("physics", physics), ("ridge", Ridge())]
+    assert physics.fits_in_lockstep
+    assert not HybridBoostingRegressor(physics_and_ridge).fits_in_lockstep
     ensemble = _ensemble()
     assert not ensemble.fits_in_lockstep
     assert ensemble.set_params(device="cuda").fits_in_lockstep

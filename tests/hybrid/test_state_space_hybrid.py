@@ -397,7 +397,7 @@ def test_dc_motor_state_space_hybrid_beats_physics_and_windowed_models():
     """Issue 14: the state-space hybrid beats the three others in free run.
 
     The benchmark itself (benchmarks/bench_state_space_hybrid.py, seed 0, its full
-    budget: about 7 minutes on 2 cores): on the held-out records' free runs the
+    budget: about 2 minutes on 2 cores): on the held-out records' free runs the
     hybrid (horizon chosen on the training records' validation tails) has a
     lower load-angle RMSE than the physics alone, the windowed hybrid trained
     one step ahead and the network alone. With a much smaller budget (10 epochs,

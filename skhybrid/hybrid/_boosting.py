@@ -418,8 +418,7 @@ class HybridBoostingRegressor(
             estimators = [estimator for _, estimator in self.stages]
         except (TypeError, ValueError):  # not (name, estimator) pairs: fit says
             return False
-        on_gpu = any(getattr(e, "device", None) == "cuda" for e in estimators)
-        return on_gpu and parts_fit_in_lockstep(estimators)
+        return parts_fit_in_lockstep(estimators)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

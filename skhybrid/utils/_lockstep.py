@@ -172,13 +172,16 @@ def run_in_lockstep(models, fit):
 
 
 def parts_fit_in_lockstep(parts):
-    """Whether a model made of ``parts`` fits in lockstep: each part that says does.
+    """Whether a model made of ``parts`` fits in lockstep: its networks on a GPU do.
 
-    A part says so with its ``fits_in_lockstep`` (a network of
-    :mod:`skhybrid.neural`: on a GPU; a :class:`~skhybrid.domain.StateSpaceModel`:
-    always). A part that does not say (a physics fitted by least squares, a
-    linear stage) fits in its thread as it would alone, and neither gains nor
-    costs. At least one part must say yes, or nothing would be batched.
+    A part says whether it fits in lockstep with its ``fits_in_lockstep`` (a
+    network of :mod:`skhybrid.neural`: on a GPU; a
+    :class:`~skhybrid.domain.StateSpaceModel`: always, for its own batched
+    free runs). The model does where one part is on a GPU (``device="cuda"``,
+    a network whose steps batch there) and every part that says says yes. A
+    part that does not say (a physics fitted by least squares, a linear stage)
+    fits in its thread as it would alone; without a part on a GPU nothing
+    would gain, and the folds are better spread over a search's workers.
 
     Parameters
     ----------
@@ -189,8 +192,10 @@ def parts_fit_in_lockstep(parts):
     -------
     in_lockstep : bool
     """
+    parts = list(parts)
     said = [bool(p.fits_in_lockstep) for p in parts if hasattr(p, "fits_in_lockstep")]
-    return bool(said) and all(said)
+    on_gpu = any(getattr(p, "device", None) == "cuda" for p in parts)
+    return on_gpu and all(said)
 
 
 def physics_signature(physics):

@@ -746,16 +746,7 @@ n_inputs) or list of 2-D arrays
                 out[i, : len(y)] = y
         return pack_trajectories(out, lengths, form) if pack else out
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the fitted model in free run from measured initial windows.
 
         The state at the first sample of each record is estimated from its

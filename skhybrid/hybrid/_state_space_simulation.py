@@ -24,6 +24,7 @@ from skhybrid.utils._docstrings import (
     fill_doc,
 )
 from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 
 
 @fill_doc(
@@ -31,20 +32,11 @@ from skhybrid.utils._simulate_checks import check_simulate_options
     no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
     record_inputs=RECORD_INPUTS,
 )
-class _SimulationMixin:
+class _SimulationMixin(SimulateContract):
     """``simulate``, ``simulate_from_state`` and ``estimate_initial_state``."""
 
     # -- simulation ----------------------------------------------------------------
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the fitted model in free run from measured initial windows.
 
         The encoder reads the last ``n_init`` samples of each initial window

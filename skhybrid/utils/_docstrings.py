@@ -14,10 +14,12 @@ import textwrap
 __all__ = [
     "INITIAL_WINDOW_INPUTS",
     "NO_NOISE_SIMULATE_OPTIONS",
+    "RECORDS_FEATURES_IN",
     "RECORDS_OUTPUTS",
     "RECORDS_X",
     "RECORD_INPUTS",
     "RECORD_INPUTS_INITIAL",
+    "RECORD_MODEL_DOCS",
     "fill_doc",
     "fill_docstring",
 ]
@@ -62,6 +64,23 @@ n_inputs) or list of 2-D arrays
 RECORDS_X = """\
 X : array-like of shape (n_times, n_inputs), or list of them
     The inputs of one record, or of each of several records."""
+
+
+#: The fitted attributes naming the inputs of a model fitted on records ``X``.
+RECORDS_FEATURES_IN = """\
+n_features_in_ : int
+    Number of inputs (columns of ``X``).
+feature_names_in_ : ndarray of shape (`n_features_in_`,)
+    Names of the inputs, where ``X`` was a DataFrame with string column
+    names."""
+
+#: The fragments of a model fitted on whole records that simulates without a
+#: noise model: ``fit``'s records, ``simulate``'s inputs and its options.
+RECORD_MODEL_DOCS = {
+    "no_noise_simulate_options": NO_NOISE_SIMULATE_OPTIONS,
+    "record_inputs": RECORD_INPUTS,
+    "records_x": RECORDS_X,
+}
 
 
 def fill_docstring(doc, **fragments):

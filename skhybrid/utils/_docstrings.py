@@ -20,6 +20,7 @@ __all__ = [
     "RECORD_INPUTS",
     "RECORD_INPUTS_INITIAL",
     "RECORD_MODEL_DOCS",
+    "SIMULATE_FROM_STATE_DOCS",
     "fill_doc",
     "fill_docstring",
 ]
@@ -65,6 +66,25 @@ RECORDS_X = """\
 X : array-like of shape (n_times, n_inputs), or list of them
     The inputs of one record, or of each of several records."""
 
+
+#: ``simulate_from_state``'s ``inputs``: the records the known states start.
+_STATES_RECORDS_INPUTS = """\
+inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+    Inputs of each record."""
+
+#: What ``simulate_from_state`` returns.
+_SIMULATED_FROM_STATES = """\
+outputs : ndarray or list of ndarray
+    Simulated outputs ``(n_times, n_outputs)`` of each record, in the
+    container form of ``inputs``; row 0 is the output of ``states``."""
+
+#: The fragments of ``simulate_from_state``, which the state-space physics and
+#: the state-space hybrid both answer.
+SIMULATE_FROM_STATE_DOCS = {
+    "simulated_from_states": _SIMULATED_FROM_STATES,
+    "states_records_inputs": _STATES_RECORDS_INPUTS,
+}
 
 #: The fitted attributes naming the inputs of a model fitted on records ``X``.
 RECORDS_FEATURES_IN = """\

@@ -19,14 +19,10 @@ from skhybrid.simulation import (
     fit_initial_states,
     pack_trajectories,
 )
-from skhybrid.utils._docstrings import (
-    NO_NOISE_SIMULATE_OPTIONS,
-    RECORD_INPUTS,
-    RECORDS_X,
-    fill_doc,
-)
+from skhybrid.utils._docstrings import RECORD_MODEL_DOCS, fill_doc
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 from skhybrid.utils._sklearn_compat import Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
 from skhybrid.utils._validation import validate_records
@@ -148,13 +144,9 @@ def _sensitivities(a1, b1, a2, b2, coef, knots, u, free_b2):
     return y, np.concatenate(columns, axis=1)
 
 
-@fill_doc(
-    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
-    record_inputs=RECORD_INPUTS,
-    records_x=RECORDS_X,
-)
+@fill_doc(**RECORD_MODEL_DOCS)
 class WienerHammersteinModel(
-    TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
+    SimulateContract, TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
 ):
     """Two linear filters around a static nonlinearity, started from the linear fit.
 
@@ -651,16 +643,7 @@ class WienerHammersteinModel(
             out[idx] = z
         return out
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Free run over whole records, each measured initial window returned as is.
 
         Parameters

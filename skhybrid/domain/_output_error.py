@@ -12,12 +12,13 @@ from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.utils._docstrings import NO_NOISE_SIMULATE_OPTIONS, fill_doc
+from skhybrid.utils._simulate_contract import SimulateContract
 
 __all__ = []
 
 
 @fill_doc(no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS)
-class _LinearOutputError(BaseEstimator):
+class _LinearOutputError(SimulateContract, BaseEstimator):
     """A linear output-error model ``y = B(q) / A(q) u + c`` fitted by simulation error.
 
     The physics a user writes for a block-structured system from its data sheet
@@ -148,16 +149,7 @@ class _LinearOutputError(BaseEstimator):
         self.n_inputs_ = m
         return self
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Free run from the measured initial window.
 
         Parameters

@@ -38,8 +38,8 @@ from skhybrid.simulation import (
     stack_trajectories,
 )
 from skhybrid.utils._array_api import get_namespace, is_torch
-from skhybrid.utils._docstrings import RECORD_INPUTS, fill_doc
-from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._docstrings import RECORD_INPUTS, SIMULATE_FROM_STATE_DOCS, fill_doc
+from skhybrid.utils._simulate_checks import check_initial_states, check_simulate_options
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
     Interval,
@@ -54,7 +54,7 @@ __all__ = ["StateSpaceModel"]
 DEFAULT_N_INIT = 20
 
 
-@fill_doc(record_inputs=RECORD_INPUTS)
+@fill_doc(record_inputs=RECORD_INPUTS, **SIMULATE_FROM_STATE_DOCS)
 class StateSpaceModel(
     _SimulationFitMixin, _InitialStateMixin, _IntegratorMixin, DomainModel
 ):
@@ -706,27 +706,17 @@ default=None
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs of each record.
+        %(states_records_inputs)s
         states : array-like of shape (n_states,) or (n_records, n_states)
             State at the first sample of each record.
 
         Returns
         -------
-        outputs : ndarray or list of ndarray
-            Simulated outputs ``(n_times, n_outputs)`` of each record, in the
-            container form of ``inputs``; row 0 is the output of ``states``.
+        %(simulated_from_states)s
         """
         n_states, _, _ = self._check_fitted_structure()
         U_list, _, form = check_trajectories(inputs, None)
-        x0 = np.atleast_2d(np.asarray(states, dtype=float))
-        if x0.shape != (len(U_list), n_states):
-            raise ValueError(
-                f"states must have shape ({len(U_list)}, {n_states}) for "
-                f"{len(U_list)} record(s) of state_names={list(self.state_names)!r}; "
-                f"got shape {x0.shape}."
-            )
+        x0 = check_initial_states(states, len(U_list), n_states, self.state_names)
         return self._free_run_records(U_list, x0, form)
 
     def _free_run_records(self, U_list, x0, form, initial=None, pack=True):
@@ -746,16 +736,7 @@ n_inputs) or list of 2-D arrays
                 out[i, : len(y)] = y
         return pack_trajectories(out, lengths, form) if pack else out
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the fitted model in free run from measured initial windows.
 
         The state at the first sample of each record is estimated from its

@@ -11,13 +11,13 @@ from sklearn.utils.validation import check_is_fitted
 from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation import check_trajectories, simulate
 from skhybrid.utils._docstrings import (
-    NO_NOISE_SIMULATE_OPTIONS,
-    RECORD_INPUTS,
-    RECORDS_X,
+    RECORD_MODEL_DOCS,
+    RECORDS_FEATURES_IN,
     fill_doc,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
 from skhybrid.utils._validation import check_record_lengths, validate_records
@@ -25,12 +25,10 @@ from skhybrid.utils._validation import check_record_lengths, validate_records
 __all__ = ["NARXSimulator"]
 
 
-@fill_doc(
-    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
-    record_inputs=RECORD_INPUTS,
-    records_x=RECORDS_X,
-)
-class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
+@fill_doc(**RECORD_MODEL_DOCS, records_features_in=RECORDS_FEATURES_IN)
+class NARXSimulator(
+    SimulateContract, TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
+):
     """A one-step NARX regressor on windows of past outputs and inputs, in free run.
 
     ``fit`` cuts each record into rows of the ``n_steps`` latest outputs and
@@ -60,11 +58,7 @@ class NARXSimulator(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
     ----------
     model_ : Pipeline
         The fitted ``StandardScaler`` and regressor: the one-step predictor.
-    n_features_in_ : int
-        Number of inputs (columns of ``X``).
-    feature_names_in_ : ndarray of shape (`n_features_in_`,)
-        Names of the inputs, where ``X`` was a DataFrame with string column
-        names.
+    %(records_features_in)s
     n_outputs_ : int
         Number of outputs (columns of ``y``).
 
@@ -145,16 +139,7 @@ of them
         )
         return self
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate in free run from measured initial windows.
 
         Follows :func:`skhybrid.simulation.simulate`: the model predicts the

@@ -15,13 +15,13 @@ from skhybrid.simulation import (
     stack_trajectories,
 )
 from skhybrid.utils._docstrings import (
-    NO_NOISE_SIMULATE_OPTIONS,
-    RECORD_INPUTS,
-    RECORDS_X,
+    RECORD_MODEL_DOCS,
+    RECORDS_FEATURES_IN,
     fill_doc,
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_fitted_widths, check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 from skhybrid.utils._sklearn_compat import HasMethods, Interval, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin, transactional
 from skhybrid.utils._validation import (
@@ -54,12 +54,10 @@ def _windows(columns, n):
     return view.reshape(len(X), -1)
 
 
-@fill_doc(
-    no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
-    record_inputs=RECORD_INPUTS,
-    records_x=RECORDS_X,
-)
-class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimator):
+@fill_doc(**RECORD_MODEL_DOCS, records_features_in=RECORDS_FEATURES_IN)
+class PhysicsCorrection(
+    SimulateContract, TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
+):
     """A fitted physics in free run plus a static map of its own recent window.
 
     The correction reads ``[y_phys(t-n+1..t), u(t-n+1..t)]`` (the physics' own
@@ -96,11 +94,7 @@ class PhysicsCorrection(TransactionalFitMixin, VersionedPickleMixin, BaseEstimat
     ----------
     model_ : Pipeline
         The fitted ``StandardScaler`` and correction regressor.
-    n_features_in_ : int
-        Number of inputs (columns of ``X``).
-    feature_names_in_ : ndarray of shape (`n_features_in_`,)
-        Names of the inputs, where ``X`` was a DataFrame with string column
-        names.
+    %(records_features_in)s
     n_outputs_ : int
         Number of outputs: 1.
 
@@ -302,16 +296,7 @@ list of them
         X_rows = _windows([p, *u.T], self.n_steps)
         return p + np.ravel(self.model_.predict(X_rows))
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """The physics' free run from each measured window, corrected.
 
         Follows the contract of :func:`skhybrid.simulation.simulate`: the first

@@ -21,30 +21,24 @@ from skhybrid.utils._docstrings import (
     INITIAL_WINDOW_INPUTS,
     NO_NOISE_SIMULATE_OPTIONS,
     RECORD_INPUTS,
+    SIMULATE_FROM_STATE_DOCS,
     fill_doc,
 )
-from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._simulate_checks import check_initial_states, check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 
 
 @fill_doc(
     initial_window_inputs=INITIAL_WINDOW_INPUTS,
     no_noise_simulate_options=NO_NOISE_SIMULATE_OPTIONS,
     record_inputs=RECORD_INPUTS,
+    **SIMULATE_FROM_STATE_DOCS,
 )
-class _SimulationMixin:
+class _SimulationMixin(SimulateContract):
     """``simulate``, ``simulate_from_state`` and ``estimate_initial_state``."""
 
     # -- simulation ----------------------------------------------------------------
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the fitted model in free run from measured initial windows.
 
         The encoder reads the last ``n_init`` samples of each initial window
@@ -170,18 +164,14 @@ n_outputs) or list of 2-D arrays
 
         Parameters
         ----------
-        inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
-n_inputs) or list of 2-D arrays
-            Inputs of each record.
+        %(states_records_inputs)s
         states : array-like of shape (n_states,) or (n_records, n_states)
             The physics' state at the first sample of each record (for example
             from :meth:`estimate_initial_state`).
 
         Returns
         -------
-        outputs : ndarray or list of ndarray
-            Simulated outputs ``(n_times, n_outputs)`` of each record, in the
-            container form of ``inputs``; row 0 is the output of ``states``.
+        %(simulated_from_states)s
 
         Raises
         ------
@@ -198,13 +188,13 @@ n_inputs) or list of 2-D arrays
             )
         module = self.module_
         n_states = module.n_physics_states
-        x0 = np.atleast_2d(np.asarray(states, dtype=float))
-        if x0.shape != (len(U_list), n_states):
-            raise ValueError(
-                f"states must have shape ({len(U_list)}, {n_states}) for "
-                f"{len(U_list)} record(s) of the physics' state_names="
-                f"{list(self.physics_.state_names)!r}; got shape {x0.shape}."
-            )
+        x0 = check_initial_states(
+            states,
+            len(U_list),
+            n_states,
+            self.physics_.state_names,
+            whose="the physics' ",
+        )
         U, lengths = stack_trajectories(U_list)
         x = torch.as_tensor(
             np.hstack([x0, np.zeros((len(x0), module.n_augmented))]),

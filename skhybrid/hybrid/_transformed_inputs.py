@@ -11,6 +11,7 @@ from skhybrid.simulation import (
 )
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 from skhybrid.utils._sklearn_compat import HasMethods, _fit_context
 from skhybrid.utils._transaction import TransactionalFitMixin
 from skhybrid.utils._validation import validate_records
@@ -23,7 +24,7 @@ _OWN_FITTED = ("n_features_in_", "feature_names_in_")
 
 
 class TransformedInputSimulator(
-    TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
+    SimulateContract, TransactionalFitMixin, VersionedPickleMixin, BaseEstimator
 ):
     """A fitted model simulated on a transform of each record's inputs.
 
@@ -176,16 +177,7 @@ of them
             return np.asarray(inputs, dtype=float)
         return self.input_transform(inputs)
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """The wrapped model's free run on the transformed inputs.
 
         Parameters

@@ -40,6 +40,7 @@ from skhybrid.losses._ljung_box import (
     weighted_autocorrelations,
 )
 from skhybrid.utils._array_api import get_namespace
+from skhybrid.utils._docstrings import fill_doc
 
 __all__ = [
     "OBJECTIVES",
@@ -133,6 +134,30 @@ def _scaled_norms(r, lags, segments, scale, xp):
     return norms / scale
 
 
+#: The parameters :func:`objective_residuals` and :func:`objective_value` share.
+_OBJECTIVE_PARAMETERS = """\
+residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
+    Residuals ``y - y_pred`` in time order.
+objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
+    The objective (see the module docstring).
+lags : int, default=20
+    Ljung-Box lags ``L``.
+ljung_box_weight : float, default=1.0
+    Weight of the Ljung-Box term in ``"mse+ljung_box"``.
+segments : int, default=1
+    Number of equal, consecutive segments the rows hold, each a series of its
+    own: the autocovariances of the Ljung-Box term are summed within each
+    segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
+    The MSE part does not depend on it, nor does ``"ljung_box_q"``.
+ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
+    Positive divisors of each output's autocovariance norm ``T_j`` in the
+    ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
+    fixed scales, such as each output's target variance, that whiten every
+    output alike whatever its size. None divides by 1. ``"ljung_box_q"``
+    ignores it."""
+
+
+@fill_doc(objective_parameters=_OBJECTIVE_PARAMETERS)
 def objective_residuals(
     residuals,
     objective="mse",
@@ -146,25 +171,7 @@ def objective_residuals(
 
     Parameters
     ----------
-    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
-        Residuals ``y - y_pred`` in time order.
-    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
-        The objective (see the module docstring).
-    lags : int, default=20
-        Ljung-Box lags ``L``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    segments : int, default=1
-        Number of equal, consecutive segments the rows hold, each a series of its
-        own: the autocovariances of the Ljung-Box term are summed within each
-        segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
-        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
-    ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
-        Positive divisors of each output's autocovariance norm ``T_j`` in the
-        ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
-        fixed scales, such as each output's target variance, that whiten every
-        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
-        ignores it.
+    %(objective_parameters)s
 
     Returns
     -------
@@ -198,6 +205,7 @@ def objective_residuals(
     return parts[0] if len(parts) == 1 else xp.concat(parts)
 
 
+@fill_doc(objective_parameters=_OBJECTIVE_PARAMETERS)
 def objective_value(
     residuals,
     objective="mse",
@@ -211,25 +219,7 @@ def objective_value(
 
     Parameters
     ----------
-    residuals : ndarray or torch.Tensor of shape (n_samples,) or (n_samples, n_outputs)
-        Residuals ``y - y_pred`` in time order.
-    objective : {"mse", "ljung_box", "mse+ljung_box", "ljung_box_q"}, default="mse"
-        The objective (see the module docstring).
-    lags : int, default=20
-        Ljung-Box lags ``L``.
-    ljung_box_weight : float, default=1.0
-        Weight of the Ljung-Box term in ``"mse+ljung_box"``.
-    segments : int, default=1
-        Number of equal, consecutive segments the rows hold, each a series of its
-        own: the autocovariances of the Ljung-Box term are summed within each
-        segment and pooled (see :func:`~skhybrid.losses.autocovariance_norm`).
-        The MSE part does not depend on it, nor does ``"ljung_box_q"``.
-    ljung_box_scale : array-like of shape (n_outputs,) or None, default=None
-        Positive divisors of each output's autocovariance norm ``T_j`` in the
-        ``"ljung_box"`` and ``"mse+ljung_box"`` terms (``mean_j T_j / s_j``):
-        fixed scales, such as each output's target variance, that whiten every
-        output alike whatever its size. None divides by 1. ``"ljung_box_q"``
-        ignores it.
+    %(objective_parameters)s
 
     Returns
     -------

@@ -37,6 +37,7 @@ from skhybrid.model_selection._stacking import (
 )
 from skhybrid.utils._docstrings import RECORD_INPUTS_INITIAL, fill_doc
 from skhybrid.utils._lockstep import run_in_lockstep
+from skhybrid.utils._simulate_contract import SimulateContract
 from skhybrid.utils._sklearn_compat import (
     HasMethods,
     Interval,
@@ -239,7 +240,7 @@ def _best_has(attr):
     return check
 
 
-class SimulationSearchCV(BaseEstimator):
+class SimulationSearchCV(SimulateContract, BaseEstimator):
     """Choose among models by their cross-validated free-run RMSE, then refit.
 
     Like :class:`~sklearn.model_selection.GridSearchCV`, for models of dynamical
@@ -857,16 +858,7 @@ class SimulationSearchCV(BaseEstimator):
     # -- delegation --------------------------------------------------------------
     @available_if(_best_has("simulate"))
     @fill_doc(record_inputs_initial=RECORD_INPUTS_INITIAL)
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the refitted best model in free run.
 
         Parameters

@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from skhybrid.model_selection._records import _check_records
 from skhybrid.utils._docstrings import RECORD_INPUTS_INITIAL, fill_doc
+from skhybrid.utils._simulate_contract import SimulateContract
 
 __all__ = ["StackedSimulation"]
 
@@ -88,7 +89,7 @@ def _as_2d(pred, n_times):
 
 
 @fill_doc(record_inputs_initial=RECORD_INPUTS_INITIAL)
-class StackedSimulation(BaseEstimator):
+class StackedSimulation(SimulateContract, BaseEstimator):
     """A weighted average of models' free runs: weights non-negative, summing to one.
 
     ``simulate`` runs every model from the same measured window and returns
@@ -221,16 +222,7 @@ class StackedSimulation(BaseEstimator):
         self.weights_ = weights
         return self
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate every model in free run and average with the weights.
 
         Parameters

@@ -9,6 +9,7 @@ from skhybrid.preprocessing import WindowLayout
 from skhybrid.simulation._initial import fit_initial_states
 from skhybrid.utils._docstrings import RECORD_INPUTS, fill_doc
 from skhybrid.utils._simulate_checks import check_simulate_options
+from skhybrid.utils._simulate_contract import SimulateContract
 
 __all__ = ["SimulatorMixin", "check_trajectories", "pack_trajectories", "simulate"]
 
@@ -531,19 +532,10 @@ n_states) or list of (n_init_i, n_states) arrays
 
 
 @fill_doc(record_inputs=RECORD_INPUTS)
-class SimulatorMixin:
+class SimulatorMixin(SimulateContract):
     """Adds :meth:`simulate` to an estimator that predicts the next state."""
 
-    def simulate(
-        self,
-        inputs,
-        initial,
-        *,
-        init="measured",
-        n_samples=None,
-        random_state=None,
-        return_std=False,
-    ):
+    def _simulate(self, inputs, initial, init, n_samples, random_state, return_std):
         """Simulate the fitted model in free run from measured initial windows.
 
         See :func:`skhybrid.simulation.simulate` for the contract; sample paths

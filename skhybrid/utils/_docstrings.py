@@ -14,10 +14,13 @@ import textwrap
 __all__ = [
     "INITIAL_WINDOW_INPUTS",
     "NO_NOISE_SIMULATE_OPTIONS",
+    "RECORDS_FEATURES_IN",
     "RECORDS_OUTPUTS",
     "RECORDS_X",
     "RECORD_INPUTS",
     "RECORD_INPUTS_INITIAL",
+    "RECORD_MODEL_DOCS",
+    "SIMULATE_FROM_STATE_DOCS",
     "fill_doc",
     "fill_docstring",
 ]
@@ -62,6 +65,42 @@ n_inputs) or list of 2-D arrays
 RECORDS_X = """\
 X : array-like of shape (n_times, n_inputs), or list of them
     The inputs of one record, or of each of several records."""
+
+
+#: ``simulate_from_state``'s ``inputs``: the records the known states start.
+_STATES_RECORDS_INPUTS = """\
+inputs : array-like of shape (n_times, n_inputs), (n_records, n_times, \
+n_inputs) or list of 2-D arrays
+    Inputs of each record."""
+
+#: What ``simulate_from_state`` returns.
+_SIMULATED_FROM_STATES = """\
+outputs : ndarray or list of ndarray
+    Simulated outputs ``(n_times, n_outputs)`` of each record, in the
+    container form of ``inputs``; row 0 is the output of ``states``."""
+
+#: The fragments of ``simulate_from_state``, which the state-space physics and
+#: the state-space hybrid both answer.
+SIMULATE_FROM_STATE_DOCS = {
+    "simulated_from_states": _SIMULATED_FROM_STATES,
+    "states_records_inputs": _STATES_RECORDS_INPUTS,
+}
+
+#: The fitted attributes naming the inputs of a model fitted on records ``X``.
+RECORDS_FEATURES_IN = """\
+n_features_in_ : int
+    Number of inputs (columns of ``X``).
+feature_names_in_ : ndarray of shape (`n_features_in_`,)
+    Names of the inputs, where ``X`` was a DataFrame with string column
+    names."""
+
+#: The fragments of a model fitted on whole records that simulates without a
+#: noise model: ``fit``'s records, ``simulate``'s inputs and its options.
+RECORD_MODEL_DOCS = {
+    "no_noise_simulate_options": NO_NOISE_SIMULATE_OPTIONS,
+    "record_inputs": RECORD_INPUTS,
+    "records_x": RECORDS_X,
+}
 
 
 def fill_docstring(doc, **fragments):

@@ -9,7 +9,12 @@ every layer that simulates calls the one owner.
 
 import numpy as np
 
-__all__ = ["INITS", "check_fitted_widths", "check_simulate_options"]
+__all__ = [
+    "INITS",
+    "check_fitted_widths",
+    "check_initial_states",
+    "check_simulate_options",
+]
 
 #: The initial-state options of the ``simulate`` contract.
 INITS = ("measured", "least_squares")
@@ -115,3 +120,39 @@ def check_fitted_widths(estimator, n_inputs, n_outputs):
             f"initial has {n_outputs} column(s); this {name} was fitted on "
             f"{expected} output(s)."
         )
+
+
+def check_initial_states(states, n_records, n_states, state_names, *, whose=""):
+    """The known initial states of ``simulate_from_state``, one row a record.
+
+    Parameters
+    ----------
+    states : array-like of shape (n_states,) or (n_records, n_states)
+        The state at the first sample of each record.
+    n_records : int
+        The number of records simulated.
+    n_states : int
+        The number of states the model starts from.
+    state_names : sequence of str
+        Their names, for the message.
+    whose : str, default=""
+        Whose states they are, for the message (``"the physics' "``).
+
+    Returns
+    -------
+    states : ndarray of shape (n_records, n_states)
+        The states as floats.
+
+    Raises
+    ------
+    ValueError
+        If ``states`` does not hold one state of ``n_states`` per record.
+    """
+    x0 = np.atleast_2d(np.asarray(states, dtype=float))
+    if x0.shape != (n_records, n_states):
+        raise ValueError(
+            f"states must have shape ({n_records}, {n_states}) for {n_records} "
+            f"record(s) of {whose}state_names={list(state_names)!r}; got shape "
+            f"{x0.shape}."
+        )
+    return x0

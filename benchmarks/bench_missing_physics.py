@@ -52,7 +52,7 @@ from joblib import Parallel, delayed
 from sklearn.base import clone
 
 from skhybrid.datasets import MISSING_PHYSICS_MACHINES, make_missing_physics
-from skhybrid.exceptions import SimulationDivergedError
+from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.hybrid import StateSpaceHybridRegressor
 
 TARGETS = {"inside_median": 2.0, "inside_worst": 4.0, "beyond_median": 5.0}
@@ -101,22 +101,31 @@ def one_run(name, seed, n_records, n_samples, noise, settings=None, restarts=1):
         t0 = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            if label == "hybrid" and restarts > 1:
-                model = models[label] = _best_start(
-                    model, restarts, data.inputs, data.outputs
-                )
-            else:
-                model.fit_simulation(data.inputs, data.outputs)
+            try:
+                if label == "hybrid" and restarts > 1:
+                    model = models[label] = _best_start(
+                        model, restarts, data.inputs, data.outputs
+                    )
+                else:
+                    model.fit_simulation(data.inputs, data.outputs)
+                diverged = False
+            except TrainingDivergedError:  # scores NaN, and is reported
+                diverged = True
         row[f"{label}_fit_s"] = time.perf_counter() - t0
-        row[f"{label}_warnings"] = sorted({type(w.message).__name__ for w in caught})
+        row[f"{label}_warnings"] = sorted(
+            {type(w.message).__name__ for w in caught}
+            | ({"TrainingDivergedError"} if diverged else set())
+        )
         for test, (u, y) in data.tests.items():
             try:
+                if diverged:
+                    raise SimulationDivergedError
                 row[f"{label}_{test}"] = free_run_rmse(model, u, y, k)
             except SimulationDivergedError:  # scores NaN, and is reported
                 row[f"{label}_{test}"] = float("nan")
     hybrid = models["hybrid"]
-    row["hybrid_epochs"] = hybrid.n_epochs_
-    row["hybrid_best_epoch"] = hybrid.best_epoch_
+    row["hybrid_epochs"] = getattr(hybrid, "n_epochs_", None)
+    row["hybrid_best_epoch"] = getattr(hybrid, "best_epoch_", None)
     row["correction_helped"] = getattr(hybrid, "correction_helped_", None)
     return row
 

@@ -251,6 +251,20 @@ class StateSpaceHybridRegressor(
     encoder_epochs : int, default=50
         Epochs of the encoder's pre-training with
         ``physics_initial_state=False`` (0 to skip).
+    compile_rollout : bool or "auto", default="auto"
+        Whether the joint training runs the module (encoder, physics steps
+        and correction over the horizon, one graph) through
+        :func:`torch.compile`, in training and validation: on ``device="cuda"``
+        with ``mode="reduce-overhead"`` (inductor's kernels replayed as CUDA
+        graphs, where an eager epoch is thousands of tiny kernel launches),
+        the batch dimension dynamic (one graph for every batch size). The
+        compilation is paid once per fit (on the CPU it took minutes). The
+        fitted model is the same eager module whatever the setting (it
+        simulates and pickles alike), and so are its numbers, up to rounding.
+        ``"auto"``: compile on ``device="cuda"`` only; on the CPU a compiled
+        epoch was measured no faster than an eager one, and its compilation
+        cost more than a whole eager fit (``docs/state_space.md``, "Capturing
+        the rollout", which says what is still to be measured on a GPU).
     %(training_parameters)s
 
     Attributes
@@ -290,6 +304,9 @@ class StateSpaceHybridRegressor(
     best_epoch_ : int
         Epoch (1-based) whose weights were kept; 0 when no epoch beat the
         starting model (the physics with a zero correction).
+    rollout_compiled_ : bool
+        Whether the joint training ran through :func:`torch.compile` (see
+        ``compile_rollout``).
     correction_helped_ : bool
         Whether a trained epoch simulates the monitored pieces (the validation
         pieces, or the training sub-sequences without them) better than the

@@ -37,6 +37,7 @@ Run: ``python benchmarks/bench_gpu_epoch.py [--data DIR] [--epochs 4]
 """
 
 import argparse
+import contextlib
 import copy
 import os
 import time
@@ -95,8 +96,16 @@ def silverbox_records(folder):
     return np.array_split(u, N_PIECES), np.array_split(y, N_PIECES)
 
 
-def capture(U, Y):
-    """A one-epoch fit on the CPU; the joint training's module and data."""
+@contextlib.contextmanager
+def joint_training():
+    """Record the state-space hybrid's joint training: its module, data, settings.
+
+    Yields
+    ------
+    seen : dict
+        Filled by a fit inside: ``module`` (a copy at its start), ``X``, ``y``
+        and ``kwargs``, the arguments of its ``train_module`` call.
+    """
     seen = {}
     original = state_space.train_module
 
@@ -105,6 +114,15 @@ def capture(U, Y):
             seen.update(module=copy.deepcopy(make_module()), X=X, y=y, kwargs=kwargs)
         return original(est, make_module, X, y, **kwargs)
 
+    state_space.train_module = spy
+    try:
+        yield seen
+    finally:
+        state_space.train_module = original
+
+
+def capture(U, Y):
+    """A one-epoch fit on the CPU; the joint training's module and data."""
     Ub = [band_limited_inputs(u) for u in U]
     model = StateSpaceHybridRegressor(
         physics_from_records(Ub, Y, DT),
@@ -116,13 +134,9 @@ def capture(U, Y):
             50, (64, 64), corrected_states=["derivative (latent)"], max_epochs=1
         ),
     )
-    state_space.train_module = spy
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            model.fit_simulation(Ub, Y)
-    finally:
-        state_space.train_module = original
+    with joint_training() as seen, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit_simulation(Ub, Y)
     return model, seen
 
 

@@ -258,13 +258,15 @@ class StateSpaceHybridRegressor(
         with ``mode="reduce-overhead"`` (inductor's kernels replayed as CUDA
         graphs, where an eager epoch is thousands of tiny kernel launches),
         the batch dimension dynamic (one graph for every batch size). The
-        compilation is paid once per fit (on the CPU it took minutes). The
-        fitted model is the same eager module whatever the setting (it
-        simulates and pickles alike), and so are its numbers, up to rounding.
-        ``"auto"``: compile on ``device="cuda"`` only; on the CPU a compiled
-        epoch was measured no faster than an eager one, and its compilation
-        cost more than a whole eager fit (``docs/state_space.md``, "Capturing
-        the rollout", which says what is still to be measured on a GPU).
+        compilation is paid once per fit. The fitted model is the same eager
+        module whatever the setting (it simulates and pickles alike), and so
+        are its numbers, up to rounding. ``"auto"``: compile on
+        ``device="cuda"`` only. On the CPU a compiled epoch of the
+        missing-physics suite's hardening spring took 0.3 times an eager one,
+        but the compilation took as long as thousands of eager epochs, more
+        than a fit runs (``docs/state_space.md``, "Capturing the rollout",
+        which says what is still to be measured on a GPU); ``True`` compiles
+        there too, for a fit long enough to pay.
     %(training_parameters)s
 
     Attributes
@@ -701,9 +703,9 @@ class StateSpaceHybridRegressor(
     def _compiles_rollout(self):
         """Whether the joint training runs the module through torch.compile.
 
-        ``"auto"`` compiles on a GPU only: on the CPU the compiled training
-        was measured slower than the eager one (``docs/state_space.md``,
-        "Capturing the rollout").
+        ``"auto"`` compiles on a GPU only: on the CPU the compilation was
+        measured to cost more than the epochs it saves over a fit
+        (``docs/state_space.md``, "Capturing the rollout").
         """
         if self.compile_rollout == "auto":
             return self.device == "cuda"

@@ -329,9 +329,11 @@ class _Net(NeuralNetRegressor):
             if compiled is None:
                 return super().infer(x, **fit_params)
             x = to_tensor(x, device=self.device)
-            # The batches differ in size (by a row in training; validation is
-            # one batch of its own): one graph for every size, not one each.
-            torch._dynamo.maybe_mark_dynamic(x, 0)
+            if self.compile_kwargs.get("dynamic") is None:
+                # The batches differ in size (by a row in training; validation
+                # is one batch of its own): one graph for every size, not one
+                # each, unless the caller chose static or dynamic shapes.
+                torch._dynamo.maybe_mark_dynamic(x, 0)
             return compiled(x)
         return lockstep_infer(self.module_, to_tensor(x, device=self.device))
 
@@ -686,7 +688,8 @@ def train_module(
         Keyword arguments of :func:`torch.compile`, which then compiles the
         module's forward pass in training and validation (not where fits
         train in lockstep, whose batched call stays eager); None runs it
-        eagerly. The net's ``module_`` stays the eager module, sharing its
+        eagerly. Without a ``dynamic`` entry the batch dimension is marked
+        dynamic. The net's ``module_`` stays the eager module, sharing its
         parameters with the compiled one, which is dropped when training ends.
 
     Returns

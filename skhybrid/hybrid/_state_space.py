@@ -42,6 +42,7 @@ from skhybrid.neural.engine import (
     training_parameters_doc,
 )
 from skhybrid.preprocessing import split_steps
+from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -308,7 +309,7 @@ class StateSpaceHybridRegressor(
         starting model (the physics with a zero correction).
     rollout_compiled_ : bool
         Whether the joint training ran through :func:`torch.compile` (see
-        ``compile_rollout``).
+        ``compile_rollout``; never where folds trained side by side).
     correction_helped_ : bool
         Whether a trained epoch simulates the monitored pieces (the validation
         pieces, or the training sub-sequences without them) better than the
@@ -707,6 +708,9 @@ class StateSpaceHybridRegressor(
         measured to cost more than the epochs it saves over a fit
         (``docs/state_space.md``, "Capturing the rollout").
         """
+        if current_member() is not None:
+            # Fits trained side by side run one batched call, eagerly.
+            return False
         if self.compile_rollout == "auto":
             return self.device == "cuda"
         return bool(self.compile_rollout)

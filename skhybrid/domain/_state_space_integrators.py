@@ -205,6 +205,17 @@ class _IntegratorMixin:
         if params is None:
             check_is_fitted(self)
             params = self.params_
+        return self._step_in(x, u, params, xp, correction)
+
+    def _step_in(self, x, u, params, xp, correction=None):
+        """:meth:`step` without its checks, the namespace and parameters given.
+
+        The hot path of a hybrid's rollout (one call per sample): no fitted
+        check and no namespace lookup, both of which break a
+        :func:`torch.compile` graph (the hybrid resolves them once, outside
+        its compiled forward pass). Same arguments as :meth:`step`, ``params``
+        and ``xp`` required.
+        """
         f = self._rhs_fn(params, xp)
         if correction is not None:
             rhs = f

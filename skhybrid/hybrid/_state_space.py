@@ -42,6 +42,7 @@ from skhybrid.neural.engine import (
     training_parameters_doc,
 )
 from skhybrid.preprocessing import split_steps
+from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
@@ -251,6 +252,20 @@ class StateSpaceHybridRegressor(
     encoder_epochs : int, default=50
         Epochs of the encoder's pre-training with
         ``physics_initial_state=False`` (0 to skip).
+    compile_rollout : bool, default=False
+        Whether the joint training runs the module (encoder, physics steps
+        and correction over the horizon, one graph) through
+        :func:`torch.compile`, in training and validation: on ``device="cuda"``
+        with ``mode="reduce-overhead"`` (inductor's kernels replayed as CUDA
+        graphs, where an eager epoch is thousands of tiny kernel launches),
+        the batch dimension dynamic (one graph for every batch size). The
+        compilation is paid once per fit. The fitted model is the same eager
+        module whatever the setting (it simulates and pickles alike), and so
+        are its numbers, up to rounding. Off by default: on the CPU a compiled
+        epoch of the missing-physics suite's hardening spring took 0.3 times
+        an eager one, but the compilation took as long as thousands of eager
+        epochs, more than a fit runs, and on a GPU it is still to be measured
+        (``docs/state_space.md``, "Capturing the rollout").
     %(training_parameters)s
 
     Attributes
@@ -290,6 +305,9 @@ class StateSpaceHybridRegressor(
     best_epoch_ : int
         Epoch (1-based) whose weights were kept; 0 when no epoch beat the
         starting model (the physics with a zero correction).
+    rollout_compiled_ : bool
+        Whether the joint training ran through :func:`torch.compile` (see
+        ``compile_rollout``; never where folds trained side by side).
     correction_helped_ : bool
         Whether a trained epoch simulates the monitored pieces (the validation
         pieces, or the training sub-sequences without them) better than the
@@ -383,6 +401,7 @@ class StateSpaceHybridRegressor(
         "stride": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
+        "compile_rollout": ["boolean"],
         **training_constraints(),
     }
 
@@ -409,6 +428,7 @@ class StateSpaceHybridRegressor(
         stride="auto",
         physics_initial_state=False,
         encoder_epochs=50,
+        compile_rollout=False,
         objective="mse",
         ljung_box_lags=20,
         ljung_box_weight=1.0,
@@ -448,6 +468,7 @@ class StateSpaceHybridRegressor(
         self.stride = stride
         self.physics_initial_state = physics_initial_state
         self.encoder_epochs = encoder_epochs
+        self.compile_rollout = compile_rollout
         self.objective = objective
         self.ljung_box_lags = ljung_box_lags
         self.ljung_box_weight = ljung_box_weight
@@ -636,6 +657,7 @@ class StateSpaceHybridRegressor(
         # 2. Joint training by the simulation error, from the start kept here:
         # the hybrid never ends worse than its physics (below).
         start = {n: v.detach().clone() for n, v in module.state_dict().items()}
+        self.rollout_compiled_ = self._compiles_rollout()
         net = train_module(
             self,
             lambda: module,
@@ -658,6 +680,7 @@ class StateSpaceHybridRegressor(
                     ]
                 }
             ),
+            compile_kwargs=self._compile_kwargs() if self.rollout_compiled_ else None,
         )
         record_training(self, net)
         module = net.module_.to("cpu").eval()
@@ -675,6 +698,30 @@ class StateSpaceHybridRegressor(
             theta = module.params().numpy().copy()
         self.params_ = self.physics_.unpack_params(theta)
         self._params_t = module.physical_params()
+
+    def _compiles_rollout(self):
+        """Whether the joint training runs the module through torch.compile.
+
+        Only where asked (``compile_rollout=True``): on the CPU the
+        compilation was measured to cost more than the epochs it saves over a
+        fit, and on a GPU it is still to be measured (``docs/state_space.md``,
+        "Capturing the rollout").
+        """
+        if current_member() is not None:
+            # Fits trained side by side run one batched call, eagerly.
+            return False
+        return bool(self.compile_rollout)
+
+    def _compile_kwargs(self):
+        """:func:`torch.compile`'s arguments for the joint training's module.
+
+        On a GPU ``mode="reduce-overhead"``: inductor's kernels replayed as
+        CUDA graphs. The engine marks the batch dimension dynamic (the
+        training batches differ in size by at most a row, validation is one
+        batch of its own size), so a fit compiles one graph for training and
+        one for validation, each for every batch size.
+        """
+        return {"mode": "reduce-overhead"} if self.device == "cuda" else {}
 
     def _states_along(self, physics, x0, U, n_times):
         """Physics states ``(n, n_times, n_states)`` from ``x0`` under ``U``."""

@@ -3,9 +3,15 @@
 import torch
 from torch import nn
 
+from skhybrid.utils._array_api import get_namespace
 from skhybrid.utils._lockstep import physics_signature
 
 __all__ = ["ACTIVATIONS", "EncoderModule", "StateSpaceHybridModule", "mlp"]
+
+#: The array namespace the physics runs in inside the module, resolved once
+#: here: looking it up from the tensors at every step (as the physics' public
+#: ``step`` does) breaks a :func:`torch.compile` graph at every sample.
+_XP = get_namespace(torch.empty(0))
 
 
 #: The hidden layers' activations a perceptron may have, by name.
@@ -177,6 +183,15 @@ class StateSpaceHybridModule(nn.Module):
         """
         return self.physics.unpack_params(self.params())
 
+    def _rollout_params(self):
+        """:meth:`physical_params` without the physics' fitted check.
+
+        The module's own physics is set up when the module is built, so the
+        check (which breaks a :func:`torch.compile` graph) is left out of the
+        forward pass.
+        """
+        return self.physics._spec.to_dict(self.params(), xp=_XP)
+
     def encode(self, Yw, Uw, prior=None):
         """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
         n = Yw.shape[0]
@@ -211,7 +226,10 @@ class StateSpaceHybridModule(nn.Module):
 
     def observe(self, x, params):
         """The outputs ``(n, n_outputs)`` of states ``x`` (augmented ones ignored)."""
-        return self.physics.observe(x[:, : self.n_physics_states], params)
+        # The physics' output map without the checks and the namespace lookup
+        # of its public ``observe`` (graph breaks in a compiled rollout).
+        h = self.physics._output_fn(params, self.observed, _XP)
+        return h(x[:, : self.n_physics_states])
 
     def correct(self, x, u):
         """The correction ``(n, n_states + n_augmented)`` at states ``x``.
@@ -226,12 +244,21 @@ class StateSpaceHybridModule(nn.Module):
             feats.append((u - self.u_mean) / self.u_scale)
         return self.correction(torch.cat(feats, dim=1))
 
+    def _physics_step(self, x, u, params, correction=None):
+        """The physics' :meth:`~skhybrid.domain.StateSpaceModel.step`, unchecked.
+
+        Its checks and namespace lookup, which break a :func:`torch.compile`
+        graph at every sample, are done once: the module's physics is set up
+        and runs in torch.
+        """
+        return self.physics._step_in(x, u, params, _XP, correction)
+
     def advance(self, x, u, params):
         """The state one sample after ``x`` under ``u``, corrected."""
         n_physics = self.n_physics_states
         xp, augmented = x[:, :n_physics], x[:, n_physics:]
         if self.physics_only:
-            x_next = self.physics.step(xp, u, params)
+            x_next = self._physics_step(xp, u, params)
             return torch.cat([x_next, augmented], dim=1)
         if self.continuous_correction:
             # dx/dt = f(x, u) + c * S / dt * net(x, u), integrated with the
@@ -244,11 +271,11 @@ class StateSpaceHybridModule(nn.Module):
                 full = torch.cat([z, augmented], dim=1)
                 return rate * self.correct(full, v)[:, :n_physics]
 
-            x_next = self.physics.step(xp, u, params, correction=term)
+            x_next = self._physics_step(xp, u, params, correction=term)
             c = self.correct(x, u) if self.n_augmented else None
         else:
             c = self.correct(x, u)
-            x_next = self.physics.step(xp, u, params)
+            x_next = self._physics_step(xp, u, params)
             x_next = x_next + self.correction_scale * c[:, :n_physics]
         if not self.n_augmented:
             return x_next
@@ -260,7 +287,7 @@ class StateSpaceHybridModule(nn.Module):
 
         ``U_future[:, 0]`` acts from the window's last sample.
         """
-        params = self.physical_params() if params is None else params
+        params = self._rollout_params() if params is None else params
         x = self.encode(Yw, Uw, prior)
         outs = []
         for t in range(U_future.shape[1]):

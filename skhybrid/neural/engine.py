@@ -286,6 +286,33 @@ class _Net(NeuralNetRegressor):
     #: Keep batch normalisation in eval mode while training (running statistics
     #: used and left alone), as when fine-tuning; set by ``finetune``.
     freeze_batch_norm = False
+    #: :func:`torch.compile`'s keyword arguments for the module's forward pass
+    #: in training and validation, or None (eager); set by ``train_module``.
+    compile_kwargs = None
+
+    def compiled_module(self):
+        """The module compiled by :func:`torch.compile` (built at first use), or None.
+
+        The compiled module shares the module's parameters and buffers:
+        ``module_`` stays the eager module, so the optimiser, the state dicts
+        of early stopping and the pickles are the eager module's.
+        """
+        if self.compile_kwargs is None:
+            return None
+        compiled = self.__dict__.get("_compiled_module")
+        if compiled is None or compiled._orig_mod is not self.module_:
+            compiled = torch.compile(self.module_, **self.compile_kwargs)
+            # Around skorch's __setattr__, which would register a torch module
+            # as a part of the net (moved, saved and pickled with it).
+            object.__setattr__(self, "_compiled_module", compiled)
+        return compiled
+
+    def __getstate__(self):
+        # A compiled module does not pickle (nor deep-copy); it is rebuilt
+        # where the net trains again.
+        state = super().__getstate__()
+        state.pop("_compiled_module", None)
+        return state
 
     def _set_training(self, training=True):
         super()._set_training(training)
@@ -298,7 +325,16 @@ class _Net(NeuralNetRegressor):
         """The module's output on batch ``x``, computed with the other members'
         where fits train in lockstep (:mod:`skhybrid.neural._lockstep`)."""
         if fit_params or current_member() is None:
-            return super().infer(x, **fit_params)
+            compiled = None if fit_params else self.compiled_module()
+            if compiled is None:
+                return super().infer(x, **fit_params)
+            x = to_tensor(x, device=self.device)
+            if self.compile_kwargs.get("dynamic") is None:
+                # The batches differ in size (by a row in training; validation
+                # is one batch of its own): one graph for every size, not one
+                # each, unless the caller chose static or dynamic shapes.
+                torch._dynamo.maybe_mark_dynamic(x, 0)
+            return compiled(x)
         return lockstep_infer(self.module_, to_tensor(x, device=self.device))
 
     def train_step_single(self, batch, **fit_params):
@@ -603,6 +639,7 @@ def train_module(
     start_as_candidate=False,
     seed=None,
     overrides=None,
+    compile_kwargs=None,
 ):
     """Train a torch module with the estimator's training protocol.
 
@@ -647,6 +684,13 @@ def train_module(
     overrides : dict or None, default=None
         Training parameters to use instead of ``est``'s (for a phase that trains
         part of a model, such as the state-space hybrid's encoder pre-training).
+    compile_kwargs : dict or None, default=None
+        Keyword arguments of :func:`torch.compile`, which then compiles the
+        module's forward pass in training and validation (not where fits
+        train in lockstep, whose batched call stays eager); None runs it
+        eagerly. Without a ``dynamic`` entry the batch dimension is marked
+        dynamic. The net's ``module_`` stays the eager module, sharing its
+        parameters with the compiled one, which is dropped when training ends.
 
     Returns
     -------
@@ -735,6 +779,7 @@ def train_module(
         device=p.device,
         verbose=p.verbose,
     )
+    net.compile_kwargs = compile_kwargs
     if start_as_candidate:
         net.initialize()
         propose_candidate(net, *(valid or (X, y)), epoch=0)
@@ -753,4 +798,6 @@ def train_module(
             sequences=sequences,
             valid=valid,
         )
+    # The fitted net keeps no compiled module (it would not pickle).
+    net.__dict__.pop("_compiled_module", None)
     return net

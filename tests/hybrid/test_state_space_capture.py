@@ -1,0 +1,175 @@
+"""StateSpaceHybridRegressor's captured rollout (``compile_rollout``).
+
+The forward pass traces whole (no graph break), a compiled training gives the
+eager one's history and weights, the fitted model pickles without its compiled
+module, and the training batches stay on the training device.
+"""
+
+import pickle
+
+import pytest
+import torch
+from numpy.testing import assert_allclose
+
+from skhybrid.domain import StateSpaceModel
+from skhybrid.hybrid import StateSpaceHybridRegressor
+from skhybrid.neural._callbacks import BatchIterator
+from tests.hybrid.test_state_space_hybrid import _model, _records, oscillator
+
+# The tiny fits here train a few epochs, where the correction rightly does not
+# help and the output function's initial states may not converge.
+pytestmark = [
+    pytest.mark.filterwarnings(
+        "ignore::skhybrid.exceptions.UnhelpfulCorrectionWarning"
+    ),
+    pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning"),
+]
+
+# The models are float64: a compiled training reorders a few floating-point
+# operations (fused kernels), and the difference stays near rounding after a
+# few epochs.
+RTOL = 1e-9
+
+
+def _position(x, *, xp, omega):
+    return xp.sin(x[:, 0:1]) + 0.0 * omega
+
+
+def _oscillator(**kwargs):
+    return StateSpaceModel(
+        oscillator,
+        {"omega": 1.0},
+        state_names=["p", "v"],
+        dt=0.1,
+        **{"observed": ["p"], **kwargs},
+    )
+
+
+HYBRIDS = {
+    "discrete, augmented state": lambda: _model(n_augmented_states=1),
+    "rk4, correction in the equations": lambda: StateSpaceHybridRegressor(
+        _oscillator(n_substeps=2), correction_form="rhs", n_augmented_states=1
+    ),
+    "euler, physics' initial state": lambda: StateSpaceHybridRegressor(
+        _oscillator(method="euler", fixed=("omega",)),
+        physics_initial_state=True,
+        train_physics=False,
+    ),
+    "output function": lambda: StateSpaceHybridRegressor(
+        _oscillator(observed=None, output=_position)
+    ),
+}
+
+
+def _fitted(make):
+    u, y = _records()
+    model = make().set_params(
+        n_init=3, horizon=5, max_epochs=1, encoder_epochs=1, random_state=0
+    )
+    model.fit_simulation(u, y)
+    module = model.module_
+    prior = None
+    if module.has_prior:
+        prior = torch.zeros((len(y), module.n_physics_states), dtype=torch.float64)
+    Z = module.pack(torch.as_tensor(y[:, :8]), torch.as_tensor(u[:, :8]), prior)
+    return module, Z
+
+
+@pytest.mark.parametrize("name", list(HYBRIDS))
+def test_forward_pass_traces_without_graph_break(name):
+    module, Z = _fitted(HYBRIDS[name])
+    torch._dynamo.reset()
+    explained = torch._dynamo.explain(module)(Z)
+    assert explained.graph_break_count == 0, explained.break_reasons
+    assert explained.graph_count == 1
+    # One whole graph, run by dynamo's eager backend: the eager numbers.
+    whole = torch.compile(module, fullgraph=True, backend="eager")
+    with torch.no_grad():
+        assert_allclose(whole(Z).numpy(), module(Z).numpy(), rtol=0, atol=0)
+
+
+def test_compiled_training_matches_eager(monkeypatch):
+    u, y = _records()
+    eager = _model(compile_rollout=False, n_augmented_states=1).fit_simulation(u, y)
+    torch._dynamo.reset()
+    compiled = _model(compile_rollout=True, n_augmented_states=1)
+    compiled.fit_simulation(u, y)
+    assert not eager.rollout_compiled_ and compiled.rollout_compiled_
+    assert_allclose(compiled.loss_curve_, eager.loss_curve_, rtol=RTOL)
+    assert_allclose(compiled.validation_scores_, eager.validation_scores_, rtol=RTOL)
+    state = eager.module_.state_dict()
+    for name, value in compiled.module_.state_dict().items():
+        assert_allclose(value.numpy(), state[name].numpy(), rtol=RTOL, atol=1e-12)
+    # Fitted models are pickled (joblib): no compiled module is left in them,
+    # and the restored model simulates as the eager-trained twin does.
+    assert type(compiled.module_) is type(eager.module_)
+    assert "_compiled_module" not in compiled.net_.__dict__
+    restored = pickle.loads(pickle.dumps(compiled))
+    assert_allclose(
+        restored.simulate(u, y[:, :3]), eager.simulate(u, y[:, :3]), rtol=1e-7
+    )
+
+
+def test_compiles_only_where_asked(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("torch.compile called by default")
+
+    monkeypatch.setattr(torch, "compile", refuse)
+    u, y = _records()
+    model = _model(max_epochs=1).fit_simulation(u, y)
+    assert model.compile_rollout is False and not model.rollout_compiled_
+    assert model._compile_kwargs() == {}
+    assert not _model(device="cuda", compile_rollout=False)._compiles_rollout()
+    on_gpu = _model(device="cuda", compile_rollout=True)
+    assert on_gpu._compiles_rollout()
+    assert on_gpu._compile_kwargs() == {"mode": "reduce-overhead"}
+
+
+@pytest.mark.parametrize("value", ["yes", "auto", 1, None])
+def test_invalid_compile_rollout_raises(value):
+    u, y = _records()
+    with pytest.raises(ValueError, match=rf"'compile_rollout'.*Got {value!r}"):
+        _model(compile_rollout=value).fit_simulation(u, y)
+
+
+def test_batches_stay_on_the_training_device(monkeypatch):
+    # The sub-sequences are packed on the device once (``_train``); skorch's
+    # iteration slices that tensor batch by batch, never copying it back.
+    seen = []
+    original = BatchIterator.__iter__
+
+    def spy(self):
+        for batch in original(self):
+            seen.append((self.dataset.X, *batch))
+            yield batch
+
+    monkeypatch.setattr(BatchIterator, "__iter__", spy)
+    u, y = _records()
+    model = _model(max_epochs=3, encoder_epochs=0).fit_simulation(u, y)
+    device = torch.device(model.device)
+    assert seen
+    data = {id(whole) for whole, _, _ in seen}
+    # One training tensor and one validation tensor, the same every epoch.
+    assert len(data) == 2
+    for whole, Xi, yi in seen:
+        assert isinstance(whole, torch.Tensor) and whole.device == device
+        assert isinstance(Xi, torch.Tensor) and Xi.device == device
+        assert isinstance(yi, torch.Tensor) and yi.device == device
+
+
+@pytest.mark.gpu
+def test_cuda_captured_training_matches_cpu_eager():
+    if not torch.cuda.is_available():
+        pytest.skip("needs CUDA")
+    u, y = _records()
+    cpu = _model(compile_rollout=False).fit_simulation(u, y)
+    torch._dynamo.reset()
+    gpu = _model(device="cuda", compile_rollout=True).fit_simulation(u, y)
+    assert gpu.rollout_compiled_
+    # float64 on both; CUDA's reductions add in another order.
+    assert_allclose(gpu.loss_curve_, cpu.loss_curve_, rtol=1e-6)
+    assert next(gpu.module_.parameters()).device.type == "cpu"
+    restored = pickle.loads(pickle.dumps(gpu))
+    assert_allclose(
+        restored.simulate(u, y[:, :3]), cpu.simulate(u, y[:, :3]), rtol=1e-6
+    )

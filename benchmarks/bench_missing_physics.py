@@ -42,16 +42,15 @@ hybrid from N network starts (``random_state`` seed, seed + 1000, ...) and
 keeps the one with the lowest validation loss, its fit time theirs together.
 """
 
-import argparse
 import time
 import warnings
 
 import numpy as np
-from _cli import parse_setting
+from _cli import suite_parser
 from joblib import Parallel, delayed
 from sklearn.base import clone
 
-from skhybrid.datasets import MISSING_PHYSICS_MACHINES, make_missing_physics
+from skhybrid.datasets import make_missing_physics
 from skhybrid.exceptions import SimulationDivergedError, TrainingDivergedError
 from skhybrid.hybrid import StateSpaceHybridRegressor
 
@@ -203,21 +202,10 @@ def report(rows, machines):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--machines", nargs="+", default=list(MISSING_PHYSICS_MACHINES))
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser = suite_parser(__doc__.splitlines()[0])
     parser.add_argument("--n-records", type=int, default=3)
     parser.add_argument("--n-samples", type=int, default=2000)
     parser.add_argument("--noise", type=float, default=0.01)
-    parser.add_argument("--n-jobs", type=int, default=1)
-    parser.add_argument(
-        "--set",
-        type=parse_setting,
-        action="append",
-        default=[],
-        metavar="PARAM=VALUE",
-        help="a hybrid parameter other than its default (repeatable)",
-    )
     parser.add_argument(
         "--restarts",
         type=int,

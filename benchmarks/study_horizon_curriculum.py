@@ -20,17 +20,16 @@ machine, seeds 0 1 2; ``--machines``, ``--seeds``, ``--set PARAM=VALUE`` for
 stage 1's settings, as in ``bench_missing_physics.py``).
 """
 
-import argparse
 import time
 import warnings
 
 import numpy as np
-from _cli import parse_setting
+from _cli import suite_parser
 from bench_missing_physics import free_run_rmse
 from joblib import Parallel, delayed
 from sklearn.base import clone
 
-from skhybrid.datasets import MISSING_PHYSICS_MACHINES, make_missing_physics
+from skhybrid.datasets import make_missing_physics
 from skhybrid.hybrid import StateSpaceHybridRegressor
 from skhybrid.simulation import check_trajectories
 
@@ -104,17 +103,11 @@ def one_run(name, seed, stage2, settings):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--machines", nargs="+", default=list(MISSING_PHYSICS_MACHINES))
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser = suite_parser(__doc__.splitlines()[0])
     parser.add_argument("--h2", type=int, default=100)
     parser.add_argument("--lr2", type=float, default=0.002)
     parser.add_argument("--epochs2", type=int, default=150)
     parser.add_argument("--patience2", type=int, default=20)
-    parser.add_argument("--n-jobs", type=int, default=1)
-    parser.add_argument(
-        "--set", type=parse_setting, action="append", default=[], metavar="PARAM=VALUE"
-    )
     args = parser.parse_args()
     stage2 = {
         "h2": args.h2,

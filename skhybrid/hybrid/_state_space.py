@@ -666,6 +666,9 @@ class StateSpaceHybridRegressor(
             valid=valid,
             sequences=True,
             start_as_candidate=True,
+            # The validation tails run free far beyond the horizon: an epoch
+            # unstable there is not kept, and training goes on.
+            free_run_validation=valid is not None,
             seed=self._seeds[2],
             # The networks' group first: the history's ``event_lr`` is the
             # first group's rate.

@@ -185,22 +185,30 @@ def check_divergence(loss, first, *, name, epoch, lr):
 class DivergenceCheck(Callback):
     """Stop training with :class:`~skhybrid.exceptions.TrainingDivergedError`.
 
-    Checks the epoch's training loss (and validation loss, where there is one): a
-    NaN or infinite value, a loss more than ``DIVERGENCE_GROWTH`` times the first
-    epoch's (or 1), or above ``DIVERGENCE_BOUND``, means the weights have blown
-    up, usually because the learning rate is too large. A blow-up that stays
-    finite is caught too.
+    Checks the epoch's training loss (and validation loss, where there is one
+    and ``keys`` names it): a NaN or infinite value, a loss more than
+    ``DIVERGENCE_GROWTH`` times the first epoch's (or 1), or above
+    ``DIVERGENCE_BOUND``, means the weights have blown up, usually because the
+    learning rate is too large. A blow-up that stays finite is caught too.
+
+    Parameters
+    ----------
+    lr : float
+        The learning rate, for the advice of the message.
+    keys : tuple of str, default=("train_loss", "valid_loss")
+        The history's losses to check.
     """
 
-    def __init__(self, lr):
+    def __init__(self, lr, keys=("train_loss", "valid_loss")):
         self.lr = lr
+        self.keys = keys
 
     def on_train_begin(self, net, **kwargs):
         self.first_ = {}
 
     def on_epoch_end(self, net, **kwargs):
         row = net.history[-1]
-        for key in ("train_loss", "valid_loss"):
+        for key in self.keys:
             value = row.get(key)
             if value is None:
                 continue

@@ -392,7 +392,7 @@ def validation_rows(n_samples, validation_fraction, min_rows):
     return n_valid
 
 
-def training_callbacks(est, monitor):
+def training_callbacks(est, monitor, free_run_validation=False):
     """The built-in skorch callbacks of the training protocol, then the user's.
 
     Parameters
@@ -401,6 +401,10 @@ def training_callbacks(est, monitor):
         Has the shared training parameters.
     monitor : {"valid_loss", "train_loss"}
         The loss that drives the schedule and early stopping.
+    free_run_validation : bool, default=False
+        Whether the validation loss is a free run longer than what the model
+        trains on: then the divergence check watches the training loss alone
+        (see :func:`train_module`).
 
     Returns
     -------
@@ -409,7 +413,15 @@ def training_callbacks(est, monitor):
         epoch), a progress bar when verbose, and ``est.callbacks``.
     """
     callbacks = [
-        ("divergence_check", DivergenceCheck(est.lr)),
+        (
+            "divergence_check",
+            DivergenceCheck(
+                est.lr,
+                keys=("train_loss",)
+                if free_run_validation
+                else ("train_loss", "valid_loss"),
+            ),
+        ),
         (
             "lr_scheduler",
             LRScheduler(
@@ -640,6 +652,7 @@ def train_module(
     seed=None,
     overrides=None,
     compile_kwargs=None,
+    free_run_validation=False,
 ):
     """Train a torch module with the estimator's training protocol.
 
@@ -691,6 +704,14 @@ def train_module(
         eagerly. Without a ``dynamic`` entry the batch dimension is marked
         dynamic. The net's ``module_`` stays the eager module, sharing its
         parameters with the compiled one, which is dropped when training ends.
+    free_run_validation : bool, default=False
+        Whether ``valid`` is a free run longer than the training samples (the
+        state-space hybrid's whole validation tails against its sub-sequences
+        of ``horizon`` steps). A model can be unstable over the long run for a
+        few epochs while its training is sound; its validation loss then blows
+        up, the epoch is not kept (the kept weights are the best on
+        validation), and training goes on. The divergence check then watches
+        the training loss alone, which still stops a training that blows up.
 
     Returns
     -------
@@ -775,7 +796,7 @@ def train_module(
         iterator_valid=BatchIterator,
         iterator_valid__contiguous=time_ordered and not sequences,
         iterator_valid__batch_size=valid_batch_size,
-        callbacks=training_callbacks(p, monitor),
+        callbacks=training_callbacks(p, monitor, free_run_validation),
         device=p.device,
         verbose=p.verbose,
     )

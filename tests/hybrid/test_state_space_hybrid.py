@@ -373,6 +373,34 @@ def test_diverging_training_raises():
         model.fit_simulation(u, y)
 
 
+def test_unstable_validation_run_is_not_a_diverged_training(monkeypatch):
+    # The validation tails run free far beyond the horizon, where a model can be
+    # unstable for a few epochs while its training is sound: such an epoch is
+    # not kept, and training goes on; only the training loss stops a blow-up.
+    from skhybrid.neural import engine
+
+    u, y = _records()
+    calls = []
+    original = engine.training_callbacks
+
+    def spy(est, monitor, free_run_validation=False):
+        calls.append(free_run_validation)
+        return original(est, monitor, free_run_validation)
+
+    monkeypatch.setattr(engine, "training_callbacks", spy)
+    model = _model(validation_fraction=0.3).fit_simulation(u, y)
+    check = dict(model.net_.callbacks_)["divergence_check"]
+    assert calls[-1] is True and check.keys == ("train_loss",)
+    # A history whose validation loss blows up passes; its training loss not.
+    history = [{"epoch": 1, "train_loss": 0.5, "valid_loss": 0.4}]
+    check.on_train_begin(model.net_)
+    for row in history + [{"epoch": 2, "train_loss": 0.4, "valid_loss": 1e12}]:
+        check.on_epoch_end(type("Net", (), {"history": history + [row]})())
+    with pytest.raises(TrainingDivergedError, match="train loss grew"):
+        row = {"epoch": 3, "train_loss": 1e12, "valid_loss": 0.3}
+        check.on_epoch_end(type("Net", (), {"history": history + [row]})())
+
+
 def test_interrupt_leaves_previous_model(monkeypatch):
     u, y = _records()
     model = _model().fit_simulation(u, y)

@@ -6,6 +6,7 @@ benchmarks/bench_state_space_hybrid.py; the slow test runs it.
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -391,14 +392,17 @@ def test_unstable_validation_run_is_not_a_diverged_training(monkeypatch):
     model = _model(validation_fraction=0.3).fit_simulation(u, y)
     check = dict(model.net_.callbacks_)["divergence_check"]
     assert calls[-1] is True and check.keys == ("train_loss",)
+
     # A history whose validation loss blows up passes; its training loss not.
-    history = [{"epoch": 1, "train_loss": 0.5, "valid_loss": 0.4}]
+    def end_epoch(epoch, train_loss, valid_loss):
+        row = {"epoch": epoch, "train_loss": train_loss, "valid_loss": valid_loss}
+        check.on_epoch_end(SimpleNamespace(history=[row]))
+
     check.on_train_begin(model.net_)
-    for row in history + [{"epoch": 2, "train_loss": 0.4, "valid_loss": 1e12}]:
-        check.on_epoch_end(type("Net", (), {"history": history + [row]})())
+    end_epoch(1, 0.5, 0.4)
+    end_epoch(2, 0.4, 1e12)
     with pytest.raises(TrainingDivergedError, match="train loss grew"):
-        row = {"epoch": 3, "train_loss": 1e12, "valid_loss": 0.3}
-        check.on_epoch_end(type("Net", (), {"history": history + [row]})())
+        end_epoch(3, 1e12, 0.3)
 
 
 def test_interrupt_leaves_previous_model(monkeypatch):

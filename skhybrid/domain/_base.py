@@ -355,6 +355,28 @@ class DomainModel(
             return spec.to_dict(theta, xp=get_namespace(theta))
         return spec.to_dict(np.asarray(theta, dtype=float))
 
+    def unpack_params_in(self, theta, xp):
+        """:meth:`unpack_params` without its checks, the namespace given.
+
+        For a rollout that checked the model once (see
+        :meth:`~skhybrid.domain.StateSpaceModel.step_in`): no fitted check, no
+        shape check and no namespace lookup, which break a
+        :func:`torch.compile` graph.
+
+        Parameters
+        ----------
+        theta : ndarray or torch.Tensor of shape (n_free_values,)
+            Free parameters laid out as :meth:`pack_params` returns them.
+        xp : module
+            The array namespace of ``theta``.
+
+        Returns
+        -------
+        params : dict
+            Every parameter, as :meth:`unpack_params` returns them.
+        """
+        return self._spec.to_dict(theta, xp=xp)
+
     def torch_forward(self, X, theta):
         """The equations on torch tensors, differentiable in the free parameters.
 

@@ -48,6 +48,30 @@ class _IntegratorMixin:
 
         return f
 
+    def observe_in(self, x, params, xp, observed):
+        """:meth:`observe` without its checks, the namespace and structure given.
+
+        For a rollout that resolved them once (see :meth:`step_in`).
+
+        Parameters
+        ----------
+        x : ndarray or torch.Tensor of shape (n, n_states)
+            States.
+        params : dict
+            Parameter values by name (used by an ``output`` function).
+        xp : module
+            The array namespace of ``x``.
+        observed : list of int or None
+            The measured states' indices (:meth:`observed_indices`), or None
+            where ``output`` gives the outputs.
+
+        Returns
+        -------
+        y : ndarray or torch.Tensor of shape (n, n_outputs)
+            Outputs of the states.
+        """
+        return self._output_fn(params, observed, xp)(x)
+
     def _output_fn(self, params, observed, xp):
         """``h(x)``: the observed states or the user's ``output``."""
         if observed is not None:
@@ -205,16 +229,33 @@ class _IntegratorMixin:
         if params is None:
             check_is_fitted(self)
             params = self.params_
-        return self._step_in(x, u, params, xp, correction)
+        return self.step_in(x, u, params, xp, correction)
 
-    def _step_in(self, x, u, params, xp, correction=None):
+    def step_in(self, x, u, params, xp, correction=None):
         """:meth:`step` without its checks, the namespace and parameters given.
 
-        The hot path of a hybrid's rollout (one call per sample): no fitted
-        check and no namespace lookup, both of which break a
-        :func:`torch.compile` graph (the hybrid resolves them once, outside
-        its compiled forward pass). Same arguments as :meth:`step`, ``params``
-        and ``xp`` required.
+        The hot path of a rollout (one call per sample), such as the
+        state-space hybrid's: no fitted check and no namespace lookup, both of
+        which break a :func:`torch.compile` graph; the caller resolves them
+        once, outside its compiled forward pass.
+
+        Parameters
+        ----------
+        x : ndarray or torch.Tensor of shape (n, n_states)
+            States at the current sample.
+        u : ndarray or torch.Tensor of shape (n, n_inputs)
+            Inputs held over the sample period.
+        params : dict
+            Parameter values by name (for example from :meth:`unpack_params_in`).
+        xp : module
+            The array namespace of ``x`` (NumPy, or the torch namespace).
+        correction : callable or None, default=None
+            As in :meth:`step`.
+
+        Returns
+        -------
+        x_next : ndarray or torch.Tensor of shape (n, n_states)
+            States one sample period later.
         """
         f = self._rhs_fn(params, xp)
         if correction is not None:

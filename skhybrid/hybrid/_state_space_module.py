@@ -190,7 +190,7 @@ class StateSpaceHybridModule(nn.Module):
         check (which breaks a :func:`torch.compile` graph) is left out of the
         forward pass.
         """
-        return self.physics._spec.to_dict(self.params(), xp=_XP)
+        return self.physics.unpack_params_in(self.params(), _XP)
 
     def encode(self, Yw, Uw, prior=None):
         """State at the last sample of windows ``Yw (n, k, p)``, ``Uw (n, k-1, m)``."""
@@ -228,8 +228,9 @@ class StateSpaceHybridModule(nn.Module):
         """The outputs ``(n, n_outputs)`` of states ``x`` (augmented ones ignored)."""
         # The physics' output map without the checks and the namespace lookup
         # of its public ``observe`` (graph breaks in a compiled rollout).
-        h = self.physics._output_fn(params, self.observed, _XP)
-        return h(x[:, : self.n_physics_states])
+        return self.physics.observe_in(
+            x[:, : self.n_physics_states], params, _XP, self.observed
+        )
 
     def correct(self, x, u):
         """The correction ``(n, n_states + n_augmented)`` at states ``x``.
@@ -251,7 +252,7 @@ class StateSpaceHybridModule(nn.Module):
         graph at every sample, are done once: the module's physics is set up
         and runs in torch.
         """
-        return self.physics._step_in(x, u, params, _XP, correction)
+        return self.physics.step_in(x, u, params, _XP, correction)
 
     def advance(self, x, u, params):
         """The state one sample after ``x`` under ``u``, corrected."""

@@ -17,9 +17,10 @@ once into a data home (:func:`get_data_home`: a parameter, or the
 matching loader returns.
 """
 
+from skhybrid.datasets import _fetch, _loaders
 from skhybrid.datasets._dc_motor import make_dc_motor
 from skhybrid.datasets._double_pendulum import make_double_pendulum
-from skhybrid.datasets._fetch import (
+from skhybrid.datasets._fetch import (  # noqa: F401 (in __all__ through _fetch's)
     fetch_cascaded_tanks,
     fetch_coupled_electric_drives,
     fetch_emps,
@@ -28,7 +29,7 @@ from skhybrid.datasets._fetch import (
     fetch_wiener_hammerstein,
     get_data_home,
 )
-from skhybrid.datasets._loaders import (
+from skhybrid.datasets._loaders import (  # noqa: F401 (in __all__ through _loaders's)
     load_cascaded_tanks,
     load_coupled_electric_drives,
     load_emps,
@@ -42,21 +43,11 @@ from skhybrid.datasets._missing_physics import (
 )
 from skhybrid.datasets._pendulum import make_pendulum
 
-__all__ = [
-    "MISSING_PHYSICS_MACHINES",
-    "fetch_cascaded_tanks",
-    "fetch_coupled_electric_drives",
-    "fetch_emps",
-    "fetch_friction_damper",
-    "fetch_silverbox",
-    "fetch_wiener_hammerstein",
-    "get_data_home",
-    "load_cascaded_tanks",
-    "load_coupled_electric_drives",
-    "load_emps",
-    "load_friction_damper",
-    "load_silverbox",
-    "load_wiener_hammerstein",
+# The fetchers and loaders are listed once, in their modules' ``__all__`` (the
+# whole stays sorted).
+__all__ = ["MISSING_PHYSICS_MACHINES"]
+__all__ += _fetch.__all__ + _loaders.__all__
+__all__ += [
     "make_dc_motor",
     "make_double_pendulum",
     "make_missing_physics",

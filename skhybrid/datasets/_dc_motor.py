@@ -15,6 +15,7 @@ from skhybrid.datasets._base import (
     _process_noise,
     _window_bunch,
 )
+from skhybrid.utils._validation import check_known_names
 
 __all__ = ["make_dc_motor"]
 
@@ -92,12 +93,11 @@ def _check_motor_params(motor_params):
         raise TypeError(
             f"motor_params must be a dict or None; got {type(motor_params).__name__}."
         )
-    unknown = sorted(set(motor_params) - set(params))
-    if unknown:
-        raise ValueError(
-            f"motor_params has unknown keys {unknown}; expected a subset of "
-            f"{sorted(params)}."
-        )
+    check_known_names(
+        motor_params,
+        sorted(params),
+        "motor_params has unknown keys {unknown}; expected a subset of {known}.",
+    )
     for name, value in motor_params.items():
         low_closed = name in {"motor_friction", "load_friction", "damping", "backlash"}
         params[name] = _check_real(

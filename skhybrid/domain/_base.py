@@ -27,6 +27,7 @@ from skhybrid.utils._sklearn_compat import (
     validate_data,
 )
 from skhybrid.utils._transaction import TransactionalFitMixin
+from skhybrid.utils._validation import check_known_names
 
 __all__ = ["DomainModel"]
 
@@ -659,18 +660,18 @@ class _ParameterSpec:
     def __init__(self, init, fixed, bounds):
         fixed = tuple(fixed)
         names = list(init)
-        unknown = sorted(set(fixed) - set(names))
-        if unknown:
-            raise ValueError(
-                f"fixed names {unknown} that are not parameters; expected a subset "
-                f"of {names}."
-            )
-        unknown = sorted(set(bounds) - set(names))
-        if unknown:
-            raise ValueError(
-                f"bounds has keys {unknown} that are not parameters; expected a "
-                f"subset of {names}."
-            )
+        check_known_names(
+            fixed,
+            names,
+            "fixed names {unknown} that are not parameters; expected a subset "
+            "of {known}.",
+        )
+        check_known_names(
+            bounds,
+            names,
+            "bounds has keys {unknown} that are not parameters; expected a "
+            "subset of {known}.",
+        )
         self.names = names
         self.init = {k: np.asarray(v, dtype=float) for k, v in init.items()}
         self.shapes = {k: v.shape for k, v in self.init.items()}

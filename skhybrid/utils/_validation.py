@@ -1,4 +1,4 @@
-"""Checks of array arguments shared across subpackages."""
+"""Checks of arguments (arrays, names) shared across subpackages."""
 
 import numpy as np
 
@@ -6,6 +6,7 @@ from skhybrid.utils._sklearn_compat import validate_data
 
 __all__ = [
     "as_columns",
+    "check_known_names",
     "check_record_lengths",
     "first_not_finite",
     "validate_records",
@@ -139,6 +140,29 @@ def validate_records(estimator, X, y):
             f"every record of y must hold the same number of outputs; got {widths}."
         )
     return U, Y
+
+
+def check_known_names(given, known, message):
+    """Raise a ValueError when ``given`` names something ``known`` lacks.
+
+    Parameters
+    ----------
+    given : iterable of str
+        The names received (the keys of a dict).
+    known : list of str
+        The names allowed, in the order the message shows them.
+    message : str
+        The error message, formatted with ``unknown`` (the sorted names not
+        in ``known``) and ``known``.
+
+    Raises
+    ------
+    ValueError
+        If a name of ``given`` is not in ``known``.
+    """
+    unknown = sorted(set(given) - set(known))
+    if unknown:
+        raise ValueError(message.format(unknown=unknown, known=known))
 
 
 def check_record_lengths(estimator, Y, shortest, why):

@@ -303,20 +303,7 @@ def make_missing_physics(
     measured = clean + noise_std * rng.standard_normal(clean.shape)
 
     physics = _model(mass_spring_damper, _PHYSICS_START, ["position", "velocity"])
-    descr = _DESCR.format(
-        name=name,
-        amplitude=amplitude,
-        dt=DT,
-        noise=noise,
-        missing=machine["missing"],
-        n_records=n_records,
-        n_samples=n_samples,
-        beyond=BEYOND,
-        burn_in=_BURN_IN,
-        data_substeps=_DATA_SUBSTEPS,
-        model_substeps=_MODEL_SUBSTEPS,
-    )
-    return Bunch(
+    data = Bunch(
         inputs=list(U[:n_records]),
         outputs=list(measured[:n_records]),
         outputs_clean=list(clean[:n_records]),
@@ -337,5 +324,17 @@ def make_missing_physics(
         input_names=["force"],
         output_names=["position"],
         name=name,
-        DESCR=descr,
     )
+    # The description reads the machine's name, amplitude, missing term and dt
+    # from the Bunch it describes.
+    data.DESCR = _DESCR.format(
+        **data,
+        noise=noise,
+        n_records=n_records,
+        n_samples=n_samples,
+        beyond=BEYOND,
+        burn_in=_BURN_IN,
+        data_substeps=_DATA_SUBSTEPS,
+        model_substeps=_MODEL_SUBSTEPS,
+    )
+    return data

@@ -9,6 +9,7 @@ from skhybrid.diagnostics._tests import (
     WhitenessResult,
     _as_2d,
     _check_alpha,
+    _predict_like,
     ljung_box_test,
     residual_input_correlation,
     rmse_db,
@@ -382,8 +383,7 @@ def diagnose(
             f"{X_arr.shape}."
         )
     y_arr = _as_2d(y, "y")
-    y_pred = np.asarray(estimator.predict(X))
-    y_pred = y_pred.reshape(y_arr.shape) if y_pred.size == y_arr.size else y_pred
+    y_pred = _predict_like(estimator, X, y_arr)
     if isinstance(inputs, str):
         if inputs != "X":
             raise ValueError(

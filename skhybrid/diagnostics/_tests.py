@@ -51,6 +51,13 @@ def _as_2d(array, name, *, min_samples=2):
     return arr
 
 
+def _predict_like(estimator, X, y):
+    """``estimator.predict(X)`` as an array, in the shape of ``y`` where sizes match."""
+    y_pred = np.asarray(estimator.predict(X))
+    y = np.asarray(y)
+    return y_pred.reshape(y.shape) if y_pred.size == y.size else y_pred
+
+
 def _check_int(value, name, *, low, high=None, high_name=None):
     if isinstance(value, bool) or not isinstance(value, Integral) or value < low:
         raise ValueError(f"{name} must be an integer >= {low}; got {name}={value!r}.")

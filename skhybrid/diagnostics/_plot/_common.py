@@ -1,4 +1,4 @@
-"""Input checks shared by the diagnostics Displays."""
+"""Input checks and bookkeeping shared by the diagnostics Displays."""
 
 from collections.abc import Mapping
 
@@ -26,3 +26,27 @@ def _check_models(mapping, name):
             f"{type(mapping).__name__}."
         )
     return mapping
+
+
+def _checked_predictions(mapping, y_true, name):
+    """``y_true`` checked, and each model's predictions in ``mapping`` checked lazily.
+
+    ``mapping`` (called ``name`` in errors) must be a non-empty dict of arrays of
+    the shape of ``y_true``. The second value returned is a generator of ``(key,
+    predictions)`` that checks each model as it reaches it, so that errors come in
+    the order of the models.
+    """
+    mapping = _check_models(mapping, name)
+    yt = _as_2d(y_true, "y_true")
+    return yt, (
+        (key, _predictions_like(val, yt, f"{name}[{key!r}]"))
+        for key, val in mapping.items()
+    )
+
+
+def _store_panels(display, fig, axes):
+    """Set ``display.axes_``, ``ax_`` (the first panel) and ``figure_``; return it."""
+    display.axes_ = axes
+    display.ax_ = axes.flat[0]
+    display.figure_ = fig
+    return display

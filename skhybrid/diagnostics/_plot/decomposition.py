@@ -7,8 +7,12 @@ from inspect import signature
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _check_models, _predictions_like
-from skhybrid.diagnostics._tests import _as_2d
+from skhybrid.diagnostics._plot._common import (
+    _check_models,
+    _checked_predictions,
+    _predictions_like,
+    _store_panels,
+)
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
@@ -213,10 +217,7 @@ class DecompositionDisplay:
         axes[1, 0].legend(loc="upper right", fontsize="small")
         if name:
             fig.suptitle(name)
-        self.axes_ = axes
-        self.ax_ = axes[0, 0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
     def from_decomposition(
@@ -263,12 +264,8 @@ class DecompositionDisplay:
         display : DecompositionDisplay
             The plotted display.
         """
-        parts = _check_models(parts, "parts")
-        yt = _as_2d(y_true, "y_true")
-        arrays = {
-            key: _predictions_like(val, yt, f"parts[{key!r}]")
-            for key, val in parts.items()
-        }
+        yt, checked = _checked_predictions(parts, y_true, "parts")
+        arrays = dict(checked)
         if total is None:
             total = sum(arrays.values())
         else:

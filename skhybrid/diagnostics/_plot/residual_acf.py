@@ -5,8 +5,13 @@ matplotlib is imported inside ``plot`` only, so it stays an optional dependency.
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _predictions_like
-from skhybrid.diagnostics._tests import _as_2d, ljung_box_test, residual_acf
+from skhybrid.diagnostics._plot._common import _predictions_like, _store_panels
+from skhybrid.diagnostics._tests import (
+    _as_2d,
+    _predict_like,
+    ljung_box_test,
+    residual_acf,
+)
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
@@ -168,10 +173,7 @@ class ResidualACFDisplay:
             axis.set_xlabel("lag")
             if j == 0:
                 axis.set_ylabel("residual autocorrelation")
-        self.axes_ = axes
-        self.ax_ = axes[0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
     def from_predictions(
@@ -281,13 +283,9 @@ class ResidualACFDisplay:
         display : ResidualACFDisplay
             The plotted display.
         """
-        y_pred = np.asarray(estimator.predict(X))
-        y_arr = np.asarray(y)
-        if y_pred.size == y_arr.size:
-            y_pred = y_pred.reshape(y_arr.shape)
         return cls.from_predictions(
             y,
-            y_pred,
+            _predict_like(estimator, X, y),
             lags=lags,
             alpha=alpha,
             bartlett_confint=bartlett_confint,

@@ -5,8 +5,12 @@ matplotlib is imported inside ``plot`` only, so it stays an optional dependency.
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _check_models, _predictions_like
-from skhybrid.diagnostics._tests import _as_2d, rmse_db
+from skhybrid.diagnostics._plot._common import (
+    _check_models,
+    _checked_predictions,
+    _store_panels,
+)
+from skhybrid.diagnostics._tests import _predict_like, rmse_db
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
@@ -176,10 +180,7 @@ class RMSEBoxDisplay:
             axis.grid(axis="y", alpha=0.3)
             if j == 0:
                 axis.set_ylabel(ylabel)
-        self.axes_ = axes
-        self.ax_ = axes[0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
     def from_rmse_db(
@@ -254,14 +255,8 @@ class RMSEBoxDisplay:
         display : RMSEBoxDisplay
             The plotted display.
         """
-        preds = _check_models(y_pred, "y_pred")
-        yt = _as_2d(y_true, "y_true")
-        scores = {
-            model: rmse_db(
-                yt, _predictions_like(pred, yt, f"y_pred[{model!r}]"), window=window
-            )
-            for model, pred in preds.items()
-        }
+        yt, preds = _checked_predictions(y_pred, y_true, "y_pred")
+        scores = {model: rmse_db(yt, pred, window=window) for model, pred in preds}
         return cls.from_rmse_db(
             scores,
             output_names=output_names,
@@ -312,12 +307,7 @@ class RMSEBoxDisplay:
         """
         models = _check_models(estimators, "estimators")
         y_arr = np.asarray(y)
-        preds = {}
-        for model, est in models.items():
-            pred = np.asarray(est.predict(X))
-            preds[model] = (
-                pred.reshape(y_arr.shape) if pred.size == y_arr.size else pred
-            )
+        preds = {model: _predict_like(est, X, y_arr) for model, est in models.items()}
         return cls.from_predictions(
             y,
             preds,

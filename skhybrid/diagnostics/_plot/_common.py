@@ -1,4 +1,4 @@
-"""Input checks and bookkeeping shared by the diagnostics Displays."""
+"""Input checks, bookkeeping and docstring entries the diagnostics Displays share."""
 
 from collections.abc import Mapping
 
@@ -7,6 +7,20 @@ import numpy as np
 from skhybrid.diagnostics._tests import _as_2d
 
 __all__ = []
+
+#: The fitted attributes of a Display drawing one panel per output in a row.
+_OUTPUT_PANELS_ATTRIBUTES = """\
+axes_ : ndarray of matplotlib Axes of shape (n_outputs,)
+    One panel per output.
+ax_ : matplotlib Axes
+    The first panel.
+figure_ : matplotlib Figure
+    Figure holding the panels."""
+
+#: The ``ax`` of the constructors of a Display drawing one panel per output.
+_OUTPUT_AXES = """\
+ax : matplotlib Axes, array of Axes or None, default=None
+    One Axes per output."""
 
 
 def _predictions_like(y_pred, y_true, name):

@@ -5,17 +5,42 @@ matplotlib is imported inside ``plot`` only, so it stays an optional dependency.
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _predictions_like, _store_panels
+from skhybrid.diagnostics._plot._common import (
+    _OUTPUT_AXES,
+    _OUTPUT_PANELS_ATTRIBUTES,
+    _predictions_like,
+    _store_panels,
+)
 from skhybrid.diagnostics._tests import (
     _as_2d,
     _predict_like,
     ljung_box_test,
     residual_acf,
 )
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["ResidualACFDisplay"]
+
+#: What both constructors of ResidualACFDisplay take, pass on to ``plot`` and
+#: return.
+_FROM_DOCS = {
+    "lags_alpha": """\
+lags : int, default=20
+    Largest lag drawn and lags of the Ljung-Box test.
+alpha : float, default=0.05
+    The band has coverage ``1 - alpha``.""",
+    "output_axes": _OUTPUT_AXES,
+    "plot_options": """\
+output_names : list of str or None, default=None
+    Panel titles.
+stem_kwargs, band_kwargs : dict or None, default=None
+    See :meth:`plot`.""",
+    "plotted_display": """\
+display : ResidualACFDisplay
+    The plotted display.""",
+}
 
 
 def _format_pvalue(p):
@@ -23,6 +48,7 @@ def _format_pvalue(p):
     return "p < 0.0001" if p < 1e-4 else f"p = {p:.3g}"
 
 
+@fill_doc(output_panels_attributes=_OUTPUT_PANELS_ATTRIBUTES)
 class ResidualACFDisplay:
     """Residual autocorrelation per output with its band and Ljung-Box p-value.
 
@@ -53,12 +79,7 @@ class ResidualACFDisplay:
 
     Attributes
     ----------
-    axes_ : ndarray of matplotlib Axes of shape (n_outputs,)
-        One panel per output.
-    ax_ : matplotlib Axes
-        The first panel.
-    figure_ : matplotlib Figure
-        Figure holding the panels.
+    %(output_panels_attributes)s
     stems_ : list of matplotlib LineCollection
         The stems, one collection per panel.
     markers_ : list of matplotlib Line2D
@@ -176,6 +197,7 @@ class ResidualACFDisplay:
         return _store_panels(self, fig, axes)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_predictions(
         cls,
         y_true,
@@ -198,27 +220,19 @@ class ResidualACFDisplay:
             Measured outputs, in time order.
         y_pred : array-like of the same shape
             Predictions.
-        lags : int, default=20
-            Largest lag drawn and lags of the Ljung-Box test.
-        alpha : float, default=0.05
-            The band has coverage ``1 - alpha``.
+        %(lags_alpha)s
         bartlett_confint : bool, default=False
             ``False`` draws the white-noise band ``z / sqrt(n)`` (a test of
             whiteness lag by lag, MATLAB's ``resid``); ``True`` widens it by
             Bartlett's formula (statsmodels' ``plot_acf``).
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
+        %(output_axes)s
         name : str or None, default=None
             Prefixed to the titles.
-        output_names : list of str or None, default=None
-            Panel titles.
-        stem_kwargs, band_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(plot_options)s
 
         Returns
         -------
-        display : ResidualACFDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         yt = _as_2d(y_true, "y_true")
         residuals = yt - _predictions_like(y_pred, yt, "y_pred")
@@ -238,6 +252,7 @@ class ResidualACFDisplay:
         return disp.plot(ax=ax, stem_kwargs=stem_kwargs, band_kwargs=band_kwargs)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_estimator(
         cls,
         estimator,
@@ -263,25 +278,17 @@ class ResidualACFDisplay:
             Rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        lags : int, default=20
-            Largest lag drawn and lags of the Ljung-Box test.
-        alpha : float, default=0.05
-            The band has coverage ``1 - alpha``.
+        %(lags_alpha)s
         bartlett_confint : bool, default=False
             See :meth:`from_predictions`.
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
+        %(output_axes)s
         name : str or None, default=None
             Prefixed to the titles; ``None`` uses the estimator's class name.
-        output_names : list of str or None, default=None
-            Panel titles.
-        stem_kwargs, band_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(plot_options)s
 
         Returns
         -------
-        display : ResidualACFDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         return cls.from_predictions(
             y,

@@ -15,8 +15,14 @@ from skhybrid.diagnostics._tests import (
     rmse_db,
 )
 from skhybrid.preprocessing import newest_step
+from skhybrid.utils._docstrings import fill_doc
 
 __all__ = ["DiagnosticReport", "diagnose", "diagnose_predictions"]
+
+#: What diagnose and diagnose_predictions return.
+_REPORT_RETURNED = """\
+report : DiagnosticReport
+    RMSE, tests and verdict; print it or call ``to_frame()``."""
 
 
 def _names(names, count, prefix, param):
@@ -200,6 +206,7 @@ class DiagnosticReport:
         return "\n".join([header, *rows, footer])
 
 
+@fill_doc(report_returned=_REPORT_RETURNED)
 def diagnose_predictions(
     y_true,
     y_pred,
@@ -236,8 +243,7 @@ def diagnose_predictions(
 
     Returns
     -------
-    report : DiagnosticReport
-        RMSE, tests and verdict; print it or call ``to_frame()``.
+    %(report_returned)s
 
     See Also
     --------
@@ -296,6 +302,7 @@ def _default_inputs(X, n_outputs, n_steps):
     return step[:, n_outputs:]
 
 
+@fill_doc(report_returned=_REPORT_RETURNED)
 def diagnose(
     estimator,
     X,
@@ -342,8 +349,7 @@ def diagnose(
 
     Returns
     -------
-    report : DiagnosticReport
-        RMSE, tests and verdict; print it or call ``to_frame()``.
+    %(report_returned)s
 
     See Also
     --------

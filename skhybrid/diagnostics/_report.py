@@ -5,6 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skhybrid.diagnostics._tests import (
+    _RESIDUALS_OF_PREDICTIONS,
     CrossCorrelationResult,
     WhitenessResult,
     _as_2d,
@@ -206,7 +207,10 @@ class DiagnosticReport:
         return "\n".join([header, *rows, footer])
 
 
-@fill_doc(report_returned=_REPORT_RETURNED)
+@fill_doc(
+    report_returned=_REPORT_RETURNED,
+    residuals_of_predictions=_RESIDUALS_OF_PREDICTIONS,
+)
 def diagnose_predictions(
     y_true,
     y_pred,
@@ -222,10 +226,7 @@ def diagnose_predictions(
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
-        Measured outputs, in time order.
-    y_pred : array-like of the same shape
-        Predictions.
+    %(residuals_of_predictions)s
     inputs : array-like of shape (n_samples,) or (n_samples, n_inputs) or None, \
             default=None
         Inputs aligned with the rows, for the independence test; ``None`` skips

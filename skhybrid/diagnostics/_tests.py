@@ -34,6 +34,14 @@ _ACF_KWARGS = (
 )
 
 
+#: The measured outputs and predictions whose residuals a diagnostic examines.
+_RESIDUALS_OF_PREDICTIONS = """\
+y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    Measured outputs, in time order.
+y_pred : array-like of the same shape
+    Predictions."""
+
+
 # --------------------------------------------------------------------------------------
 # validation
 # --------------------------------------------------------------------------------------

@@ -12,6 +12,7 @@ from skhybrid.diagnostics._plot._common import (
     _store_panels,
 )
 from skhybrid.diagnostics._tests import (
+    _RESIDUALS_OF_PREDICTIONS,
     _as_2d,
     _predict_like,
     ljung_box_test,
@@ -197,7 +198,7 @@ class ResidualACFDisplay:
         return _store_panels(self, fig, axes)
 
     @classmethod
-    @fill_doc(**_FROM_DOCS)
+    @fill_doc(**_FROM_DOCS, residuals_of_predictions=_RESIDUALS_OF_PREDICTIONS)
     def from_predictions(
         cls,
         y_true,
@@ -216,10 +217,7 @@ class ResidualACFDisplay:
 
         Parameters
         ----------
-        y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
-            Measured outputs, in time order.
-        y_pred : array-like of the same shape
-            Predictions.
+        %(residuals_of_predictions)s
         %(lags_alpha)s
         bartlett_confint : bool, default=False
             ``False`` draws the white-noise band ``z / sqrt(n)`` (a test of

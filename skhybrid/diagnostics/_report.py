@@ -5,17 +5,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from skhybrid.diagnostics._tests import (
+    _RESIDUALS_OF_PREDICTIONS,
     CrossCorrelationResult,
     WhitenessResult,
     _as_2d,
     _check_alpha,
+    _predict_like,
     ljung_box_test,
     residual_input_correlation,
     rmse_db,
 )
 from skhybrid.preprocessing import newest_step
+from skhybrid.utils._docstrings import fill_doc
 
 __all__ = ["DiagnosticReport", "diagnose", "diagnose_predictions"]
+
+#: What diagnose and diagnose_predictions return.
+_REPORT_RETURNED = """\
+report : DiagnosticReport
+    RMSE, tests and verdict; print it or call ``to_frame()``."""
 
 
 def _names(names, count, prefix, param):
@@ -199,6 +207,10 @@ class DiagnosticReport:
         return "\n".join([header, *rows, footer])
 
 
+@fill_doc(
+    report_returned=_REPORT_RETURNED,
+    residuals_of_predictions=_RESIDUALS_OF_PREDICTIONS,
+)
 def diagnose_predictions(
     y_true,
     y_pred,
@@ -214,10 +226,7 @@ def diagnose_predictions(
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
-        Measured outputs, in time order.
-    y_pred : array-like of the same shape
-        Predictions.
+    %(residuals_of_predictions)s
     inputs : array-like of shape (n_samples,) or (n_samples, n_inputs) or None, \
             default=None
         Inputs aligned with the rows, for the independence test; ``None`` skips
@@ -235,8 +244,7 @@ def diagnose_predictions(
 
     Returns
     -------
-    report : DiagnosticReport
-        RMSE, tests and verdict; print it or call ``to_frame()``.
+    %(report_returned)s
 
     See Also
     --------
@@ -295,6 +303,7 @@ def _default_inputs(X, n_outputs, n_steps):
     return step[:, n_outputs:]
 
 
+@fill_doc(report_returned=_REPORT_RETURNED)
 def diagnose(
     estimator,
     X,
@@ -341,8 +350,7 @@ def diagnose(
 
     Returns
     -------
-    report : DiagnosticReport
-        RMSE, tests and verdict; print it or call ``to_frame()``.
+    %(report_returned)s
 
     See Also
     --------
@@ -382,8 +390,7 @@ def diagnose(
             f"{X_arr.shape}."
         )
     y_arr = _as_2d(y, "y")
-    y_pred = np.asarray(estimator.predict(X))
-    y_pred = y_pred.reshape(y_arr.shape) if y_pred.size == y_arr.size else y_pred
+    y_pred = _predict_like(estimator, X, y_arr)
     if isinstance(inputs, str):
         if inputs != "X":
             raise ValueError(

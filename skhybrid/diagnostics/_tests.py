@@ -34,6 +34,14 @@ _ACF_KWARGS = (
 )
 
 
+#: The measured outputs and predictions whose residuals a diagnostic examines.
+_RESIDUALS_OF_PREDICTIONS = """\
+y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    Measured outputs, in time order.
+y_pred : array-like of the same shape
+    Predictions."""
+
+
 # --------------------------------------------------------------------------------------
 # validation
 # --------------------------------------------------------------------------------------
@@ -49,6 +57,13 @@ def _as_2d(array, name, *, min_samples=2):
     if arr.ndim == 1:
         arr = arr[:, None]
     return arr
+
+
+def _predict_like(estimator, X, y):
+    """``estimator.predict(X)`` as an array, in the shape of ``y`` where sizes match."""
+    y_pred = np.asarray(estimator.predict(X))
+    y = np.asarray(y)
+    return y_pred.reshape(y.shape) if y_pred.size == y.size else y_pred
 
 
 def _check_int(value, name, *, low, high=None, high_name=None):

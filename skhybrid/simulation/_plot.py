@@ -2,10 +2,25 @@
 
 import numpy as np
 
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["SimulationDisplay"]
+
+#: What both constructors of SimulationDisplay pass on, and return.
+_FROM_DOCS = {
+    "time_axes_names": """\
+time : array-like of shape (n_times,) or None, default=None
+    Time axis.
+ax : array of matplotlib Axes or None, default=None
+    Where to draw.
+output_names : list of str or None, default=None
+    Panel titles.""",
+    "drawn_display": """\
+display : SimulationDisplay
+    The drawn display.""",
+}
 
 
 def _as_2d(array, name):
@@ -169,6 +184,7 @@ class SimulationDisplay:
         return self
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_predictions(
         cls,
         y_true,
@@ -193,19 +209,13 @@ class SimulationDisplay:
             Standard deviation over sample paths.
         n_init : int, default=0
             Length of the measured initial window.
-        time : array-like of shape (n_times,) or None, default=None
-            Time axis.
-        ax : array of matplotlib Axes or None, default=None
-            Where to draw.
-        output_names : list of str or None, default=None
-            Panel titles.
+        %(time_axes_names)s
         name : str or None, default=None
             Legend label of the simulation.
 
         Returns
         -------
-        display : SimulationDisplay
-            The drawn display.
+        %(drawn_display)s
         """
         return cls(
             y_true=y_true,
@@ -218,6 +228,7 @@ class SimulationDisplay:
         ).plot(ax=ax)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_estimator(
         cls,
         estimator,
@@ -251,19 +262,13 @@ class SimulationDisplay:
             Draw the band of sample paths (needs a noise model).
         random_state : int, RandomState instance or None, default=None
             Seed of the sample paths.
-        time : array-like of shape (n_times,) or None, default=None
-            Time axis.
-        ax : array of matplotlib Axes or None, default=None
-            Where to draw.
-        output_names : list of str or None, default=None
-            Panel titles.
+        %(time_axes_names)s
         name : str or None, default=None
             Legend label; the estimator's class name when None.
 
         Returns
         -------
-        display : SimulationDisplay
-            The drawn display.
+        %(drawn_display)s
         """
         y_true = _as_2d(y_true, "y_true")
         out = estimator.simulate(

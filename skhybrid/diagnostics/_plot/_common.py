@@ -1,4 +1,4 @@
-"""Input checks shared by the diagnostics Displays."""
+"""Input checks, bookkeeping and docstring entries the diagnostics Displays share."""
 
 from collections.abc import Mapping
 
@@ -7,6 +7,20 @@ import numpy as np
 from skhybrid.diagnostics._tests import _as_2d
 
 __all__ = []
+
+#: The fitted attributes of a Display drawing one panel per output in a row.
+_OUTPUT_PANELS_ATTRIBUTES = """\
+axes_ : ndarray of matplotlib Axes of shape (n_outputs,)
+    One panel per output.
+ax_ : matplotlib Axes
+    The first panel.
+figure_ : matplotlib Figure
+    Figure holding the panels."""
+
+#: The ``ax`` of the constructors of a Display drawing one panel per output.
+_OUTPUT_AXES = """\
+ax : matplotlib Axes, array of Axes or None, default=None
+    One Axes per output."""
 
 
 def _predictions_like(y_pred, y_true, name):
@@ -26,3 +40,27 @@ def _check_models(mapping, name):
             f"{type(mapping).__name__}."
         )
     return mapping
+
+
+def _checked_predictions(mapping, y_true, name):
+    """``y_true`` checked, and each model's predictions in ``mapping`` checked lazily.
+
+    ``mapping`` (called ``name`` in errors) must be a non-empty dict of arrays of
+    the shape of ``y_true``. The second value returned is a generator of ``(key,
+    predictions)`` that checks each model as it reaches it, so that errors come in
+    the order of the models.
+    """
+    mapping = _check_models(mapping, name)
+    yt = _as_2d(y_true, "y_true")
+    return yt, (
+        (key, _predictions_like(val, yt, f"{name}[{key!r}]"))
+        for key, val in mapping.items()
+    )
+
+
+def _store_panels(display, fig, axes):
+    """Set ``display.axes_``, ``ax_`` (the first panel) and ``figure_``; return it."""
+    display.axes_ = axes
+    display.ax_ = axes.flat[0]
+    display.figure_ = fig
+    return display

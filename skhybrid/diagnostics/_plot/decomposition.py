@@ -7,12 +7,31 @@ from inspect import signature
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _check_models, _predictions_like
-from skhybrid.diagnostics._tests import _as_2d
+from skhybrid.diagnostics._plot._common import (
+    _check_models,
+    _checked_predictions,
+    _predictions_like,
+    _store_panels,
+)
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["DecompositionDisplay"]
+
+#: What both constructors of DecompositionDisplay take and return.
+_FROM_DOCS = {
+    "band_time_axes": """\
+n_std : float, default=2.0
+    Half-width of the band in standard deviations.
+time : array-like of shape (n_samples,) or None, default=None
+    Horizontal axis; ``None`` uses the sample index.
+ax : array of matplotlib Axes or None, default=None
+    ``2 * n_outputs`` Axes.""",
+    "plotted_display": """\
+display : DecompositionDisplay
+    The plotted display.""",
+}
 
 
 class DecompositionDisplay:
@@ -213,12 +232,10 @@ class DecompositionDisplay:
         axes[1, 0].legend(loc="upper right", fontsize="small")
         if name:
             fig.suptitle(name)
-        self.axes_ = axes
-        self.ax_ = axes[0, 0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_decomposition(
         cls,
         parts,
@@ -247,12 +264,7 @@ class DecompositionDisplay:
                 default=None
             Predictive standard deviation of a noise model. ``None`` uses the
             standard deviation of ``y_true - total`` per output (a constant band).
-        n_std : float, default=2.0
-            Half-width of the band in standard deviations.
-        time : array-like of shape (n_samples,) or None, default=None
-            Horizontal axis; ``None`` uses the sample index.
-        ax : array of matplotlib Axes or None, default=None
-            ``2 * n_outputs`` Axes.
+        %(band_time_axes)s
         name : str or None, default=None
             Figure title.
         output_names : list of str or None, default=None
@@ -260,15 +272,10 @@ class DecompositionDisplay:
 
         Returns
         -------
-        display : DecompositionDisplay
-            The plotted display.
+        %(plotted_display)s
         """
-        parts = _check_models(parts, "parts")
-        yt = _as_2d(y_true, "y_true")
-        arrays = {
-            key: _predictions_like(val, yt, f"parts[{key!r}]")
-            for key, val in parts.items()
-        }
+        yt, checked = _checked_predictions(parts, y_true, "parts")
+        arrays = dict(checked)
         if total is None:
             total = sum(arrays.values())
         else:
@@ -308,6 +315,7 @@ class DecompositionDisplay:
         return disp.plot(ax=ax)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_estimator(
         cls,
         estimator,
@@ -332,12 +340,7 @@ class DecompositionDisplay:
             Rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        n_std : float, default=2.0
-            Half-width of the band in standard deviations.
-        time : array-like of shape (n_samples,) or None, default=None
-            Horizontal axis; ``None`` uses the sample index.
-        ax : array of matplotlib Axes or None, default=None
-            ``2 * n_outputs`` Axes.
+        %(band_time_axes)s
         name : str or None, default=None
             Figure title; ``None`` uses the estimator's class name.
         output_names : list of str or None, default=None
@@ -345,8 +348,7 @@ class DecompositionDisplay:
 
         Returns
         -------
-        display : DecompositionDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         if not callable(getattr(estimator, "decompose", None)):
             raise TypeError(

@@ -5,12 +5,43 @@ matplotlib is imported inside ``plot`` only, so it stays an optional dependency.
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _predictions_like
-from skhybrid.diagnostics._tests import _as_2d, ljung_box_test, residual_acf
+from skhybrid.diagnostics._plot._common import (
+    _OUTPUT_AXES,
+    _OUTPUT_PANELS_ATTRIBUTES,
+    _predictions_like,
+    _store_panels,
+)
+from skhybrid.diagnostics._tests import (
+    _RESIDUALS_OF_PREDICTIONS,
+    _as_2d,
+    _predict_like,
+    ljung_box_test,
+    residual_acf,
+)
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["ResidualACFDisplay"]
+
+#: What both constructors of ResidualACFDisplay take, pass on to ``plot`` and
+#: return.
+_FROM_DOCS = {
+    "lags_alpha": """\
+lags : int, default=20
+    Largest lag drawn and lags of the Ljung-Box test.
+alpha : float, default=0.05
+    The band has coverage ``1 - alpha``.""",
+    "output_axes": _OUTPUT_AXES,
+    "plot_options": """\
+output_names : list of str or None, default=None
+    Panel titles.
+stem_kwargs, band_kwargs : dict or None, default=None
+    See :meth:`plot`.""",
+    "plotted_display": """\
+display : ResidualACFDisplay
+    The plotted display.""",
+}
 
 
 def _format_pvalue(p):
@@ -18,6 +49,7 @@ def _format_pvalue(p):
     return "p < 0.0001" if p < 1e-4 else f"p = {p:.3g}"
 
 
+@fill_doc(output_panels_attributes=_OUTPUT_PANELS_ATTRIBUTES)
 class ResidualACFDisplay:
     """Residual autocorrelation per output with its band and Ljung-Box p-value.
 
@@ -48,12 +80,7 @@ class ResidualACFDisplay:
 
     Attributes
     ----------
-    axes_ : ndarray of matplotlib Axes of shape (n_outputs,)
-        One panel per output.
-    ax_ : matplotlib Axes
-        The first panel.
-    figure_ : matplotlib Figure
-        Figure holding the panels.
+    %(output_panels_attributes)s
     stems_ : list of matplotlib LineCollection
         The stems, one collection per panel.
     markers_ : list of matplotlib Line2D
@@ -168,12 +195,10 @@ class ResidualACFDisplay:
             axis.set_xlabel("lag")
             if j == 0:
                 axis.set_ylabel("residual autocorrelation")
-        self.axes_ = axes
-        self.ax_ = axes[0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS, residuals_of_predictions=_RESIDUALS_OF_PREDICTIONS)
     def from_predictions(
         cls,
         y_true,
@@ -192,31 +217,20 @@ class ResidualACFDisplay:
 
         Parameters
         ----------
-        y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
-            Measured outputs, in time order.
-        y_pred : array-like of the same shape
-            Predictions.
-        lags : int, default=20
-            Largest lag drawn and lags of the Ljung-Box test.
-        alpha : float, default=0.05
-            The band has coverage ``1 - alpha``.
+        %(residuals_of_predictions)s
+        %(lags_alpha)s
         bartlett_confint : bool, default=False
             ``False`` draws the white-noise band ``z / sqrt(n)`` (a test of
             whiteness lag by lag, MATLAB's ``resid``); ``True`` widens it by
             Bartlett's formula (statsmodels' ``plot_acf``).
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
+        %(output_axes)s
         name : str or None, default=None
             Prefixed to the titles.
-        output_names : list of str or None, default=None
-            Panel titles.
-        stem_kwargs, band_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(plot_options)s
 
         Returns
         -------
-        display : ResidualACFDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         yt = _as_2d(y_true, "y_true")
         residuals = yt - _predictions_like(y_pred, yt, "y_pred")
@@ -236,6 +250,7 @@ class ResidualACFDisplay:
         return disp.plot(ax=ax, stem_kwargs=stem_kwargs, band_kwargs=band_kwargs)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_estimator(
         cls,
         estimator,
@@ -261,33 +276,21 @@ class ResidualACFDisplay:
             Rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        lags : int, default=20
-            Largest lag drawn and lags of the Ljung-Box test.
-        alpha : float, default=0.05
-            The band has coverage ``1 - alpha``.
+        %(lags_alpha)s
         bartlett_confint : bool, default=False
             See :meth:`from_predictions`.
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
+        %(output_axes)s
         name : str or None, default=None
             Prefixed to the titles; ``None`` uses the estimator's class name.
-        output_names : list of str or None, default=None
-            Panel titles.
-        stem_kwargs, band_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(plot_options)s
 
         Returns
         -------
-        display : ResidualACFDisplay
-            The plotted display.
+        %(plotted_display)s
         """
-        y_pred = np.asarray(estimator.predict(X))
-        y_arr = np.asarray(y)
-        if y_pred.size == y_arr.size:
-            y_pred = y_pred.reshape(y_arr.shape)
         return cls.from_predictions(
             y,
-            y_pred,
+            _predict_like(estimator, X, y),
             lags=lags,
             alpha=alpha,
             bartlett_confint=bartlett_confint,

@@ -5,12 +5,39 @@ matplotlib is imported inside ``plot`` only, so it stays an optional dependency.
 
 import numpy as np
 
-from skhybrid.diagnostics._plot._common import _check_models, _predictions_like
-from skhybrid.diagnostics._tests import _as_2d, rmse_db
+from skhybrid.diagnostics._plot._common import (
+    _OUTPUT_AXES,
+    _OUTPUT_PANELS_ATTRIBUTES,
+    _check_models,
+    _checked_predictions,
+    _store_panels,
+)
+from skhybrid.diagnostics._tests import _predict_like, rmse_db
+from skhybrid.utils._docstrings import fill_doc
 from skhybrid.utils._plotting import output_names as _output_names
 from skhybrid.utils._plotting import panels as _panels
 
 __all__ = ["RMSEBoxDisplay"]
+
+#: What every constructor of RMSEBoxDisplay passes on to ``plot``, and returns.
+_FROM_DOCS = {
+    "box_options": _OUTPUT_AXES
+    + """
+whis : tuple of (float, float), default=(5, 95)
+    Percentiles at the whisker ends.
+bxp_kwargs : dict or None, default=None
+    See :meth:`plot`.""",
+    "plotted_display": """\
+display : RMSEBoxDisplay
+    The plotted display.""",
+}
+
+#: The windows of the constructors that score predictions.
+_WINDOWS = """\
+window : int, default=100
+    Samples per window; the last, shorter window is dropped.
+output_names : list of str or None, default=None
+    Panel titles."""
 
 
 def _check_whis(whis):
@@ -26,6 +53,7 @@ def _check_whis(whis):
     return low, high
 
 
+@fill_doc(output_panels_attributes=_OUTPUT_PANELS_ATTRIBUTES)
 class RMSEBoxDisplay:
     """Box plots of RMSE in dB over short windows, one box per model.
 
@@ -46,12 +74,7 @@ class RMSEBoxDisplay:
 
     Attributes
     ----------
-    axes_ : ndarray of matplotlib Axes of shape (n_outputs,)
-        One panel per output.
-    ax_ : matplotlib Axes
-        The first panel.
-    figure_ : matplotlib Figure
-        Figure holding the panels.
+    %(output_panels_attributes)s
     boxes_ : list of dict
         What ``Axes.bxp`` returned for each panel (keys ``"boxes"``,
         ``"medians"``, ``"whiskers"``, ``"means"``, ...).
@@ -176,12 +199,10 @@ class RMSEBoxDisplay:
             axis.grid(axis="y", alpha=0.3)
             if j == 0:
                 axis.set_ylabel(ylabel)
-        self.axes_ = axes
-        self.ax_ = axes[0]
-        self.figure_ = fig
-        return self
+        return _store_panels(self, fig, axes)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS)
     def from_rmse_db(
         cls,
         rmse_db,
@@ -203,22 +224,17 @@ class RMSEBoxDisplay:
             Panel titles.
         window : int or None, default=None
             Window length, shown in the y label.
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
-        whis : tuple of (float, float), default=(5, 95)
-            Percentiles at the whisker ends.
-        bxp_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(box_options)s
 
         Returns
         -------
-        display : RMSEBoxDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         disp = cls(rmse_db=rmse_db, output_names=output_names, window=window)
         return disp.plot(ax=ax, whis=whis, bxp_kwargs=bxp_kwargs)
 
     @classmethod
+    @fill_doc(**_FROM_DOCS, windows=_WINDOWS)
     def from_predictions(
         cls,
         y_true,
@@ -238,30 +254,15 @@ class RMSEBoxDisplay:
             Measured outputs over the test period, in time order.
         y_pred : dict of str to array-like of the same shape
             Each model's predictions, in the order to draw.
-        window : int, default=100
-            Samples per window; the last, shorter window is dropped.
-        output_names : list of str or None, default=None
-            Panel titles.
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
-        whis : tuple of (float, float), default=(5, 95)
-            Percentiles at the whisker ends.
-        bxp_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(windows)s
+        %(box_options)s
 
         Returns
         -------
-        display : RMSEBoxDisplay
-            The plotted display.
+        %(plotted_display)s
         """
-        preds = _check_models(y_pred, "y_pred")
-        yt = _as_2d(y_true, "y_true")
-        scores = {
-            model: rmse_db(
-                yt, _predictions_like(pred, yt, f"y_pred[{model!r}]"), window=window
-            )
-            for model, pred in preds.items()
-        }
+        yt, preds = _checked_predictions(y_pred, y_true, "y_pred")
+        scores = {model: rmse_db(yt, pred, window=window) for model, pred in preds}
         return cls.from_rmse_db(
             scores,
             output_names=output_names,
@@ -272,6 +273,7 @@ class RMSEBoxDisplay:
         )
 
     @classmethod
+    @fill_doc(**_FROM_DOCS, windows=_WINDOWS)
     def from_estimator(
         cls,
         estimators,
@@ -294,30 +296,16 @@ class RMSEBoxDisplay:
             Test rows in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Measured outputs.
-        window : int, default=100
-            Samples per window; the last, shorter window is dropped.
-        output_names : list of str or None, default=None
-            Panel titles.
-        ax : matplotlib Axes, array of Axes or None, default=None
-            One Axes per output.
-        whis : tuple of (float, float), default=(5, 95)
-            Percentiles at the whisker ends.
-        bxp_kwargs : dict or None, default=None
-            See :meth:`plot`.
+        %(windows)s
+        %(box_options)s
 
         Returns
         -------
-        display : RMSEBoxDisplay
-            The plotted display.
+        %(plotted_display)s
         """
         models = _check_models(estimators, "estimators")
         y_arr = np.asarray(y)
-        preds = {}
-        for model, est in models.items():
-            pred = np.asarray(est.predict(X))
-            preds[model] = (
-                pred.reshape(y_arr.shape) if pred.size == y_arr.size else pred
-            )
+        preds = {model: _predict_like(est, X, y_arr) for model, est in models.items()}
         return cls.from_predictions(
             y,
             preds,

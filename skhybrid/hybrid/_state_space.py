@@ -46,6 +46,7 @@ from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._pickle import VersionedPickleMixin
 from skhybrid.utils._sklearn_compat import (
     Interval,
+    Options,
     StrOptions,
     _fit_context,
     validate_data,
@@ -81,6 +82,11 @@ def _safe_scale(values, axis=0):
     s = np.std(values, axis=axis)
     m = np.mean(values, axis=axis)
     return np.where(s > 1e-12 * (1 + np.abs(m)), s, 1.0)
+
+
+#: The fewest batch steps (batches per epoch, times the horizon, times
+#: ``max_epochs``) for which ``compile_rollout="auto"`` compiles the step.
+COMPILE_MIN_STEPS = 50_000
 
 
 class StateSpaceHybridRegressor(
@@ -252,20 +258,30 @@ class StateSpaceHybridRegressor(
     encoder_epochs : int, default=50
         Epochs of the encoder's pre-training with
         ``physics_initial_state=False`` (0 to skip).
-    compile_rollout : bool, default=False
-        Whether the joint training runs the module (encoder, physics steps
-        and correction over the horizon, one graph) through
-        :func:`torch.compile`, in training and validation: on ``device="cuda"``
-        with ``mode="reduce-overhead"`` (inductor's kernels replayed as CUDA
-        graphs, where an eager epoch is thousands of tiny kernel launches),
-        the batch dimension dynamic (one graph for every batch size). The
-        compilation is paid once per fit. The fitted model is the same eager
-        module whatever the setting (it simulates and pickles alike), and so
-        are its numbers, up to rounding. Off by default: on the CPU a compiled
-        epoch of the missing-physics suite's hardening spring took 0.3 times
-        an eager one, but the compilation took as long as thousands of eager
-        epochs, more than a fit runs, and on a GPU it is still to be measured
-        (``docs/state_space.md``, "Capturing the rollout").
+    compile_rollout : {"auto", "step", "whole"} or False, default="auto"
+        Whether the joint training (its training and validation batches)
+        runs through :func:`torch.compile`. The fitted model is the same
+        eager module whatever the setting (it simulates and pickles alike),
+        and so are its numbers, up to rounding.
+
+        - ``"step"``: one sample's step (physics, integrator and correction)
+          is compiled, the loop over the horizon stays in Python. It compiles
+          in seconds, a few times per fit (once per batch size), and on the
+          CPU an epoch of the missing-physics suite's hardening spring took
+          about a third of an eager one.
+        - ``"whole"``: the whole rollout (encoder and every sample of the
+          horizon) is one graph, the batch dimension dynamic; on
+          ``device="cuda"`` with ``mode="reduce-overhead"`` (inductor's kernels
+          replayed as CUDA graphs). On the CPU its compilation takes as long
+          as thousands of eager epochs.
+        - ``"auto"``: ``"step"`` where the joint training is long enough to
+          pay for its compilation (at least ``COMPILE_MIN_STEPS`` batch steps
+          over ``max_epochs``), else eager.
+        - ``False``: eager.
+
+        Where the compilation fails (no C++ compiler, say) a warning says so
+        and the training runs eagerly. See ``docs/state_space.md``,
+        "Capturing the rollout".
     %(training_parameters)s
 
     Attributes
@@ -305,9 +321,10 @@ class StateSpaceHybridRegressor(
     best_epoch_ : int
         Epoch (1-based) whose weights were kept; 0 when no epoch beat the
         starting model (the physics with a zero correction).
-    rollout_compiled_ : bool
-        Whether the joint training ran through :func:`torch.compile` (see
-        ``compile_rollout``; never where folds trained side by side).
+    rollout_compiled_ : {"step", "whole"} or None
+        What of the joint training ran through :func:`torch.compile` (see
+        ``compile_rollout``; None where it ran eagerly, as it always does
+        where folds trained side by side).
     correction_helped_ : bool
         Whether a trained epoch simulates the monitored pieces (the validation
         pieces, or the training sub-sequences without them) better than the
@@ -401,7 +418,10 @@ class StateSpaceHybridRegressor(
         "stride": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
         "physics_initial_state": ["boolean"],
         "encoder_epochs": [Interval(Integral, 0, None, closed="left")],
-        "compile_rollout": ["boolean"],
+        "compile_rollout": [
+            StrOptions({"auto", "step", "whole"}),
+            Options(bool, {False}),
+        ],
         **training_constraints(),
     }
 
@@ -428,7 +448,7 @@ class StateSpaceHybridRegressor(
         stride="auto",
         physics_initial_state=False,
         encoder_epochs=50,
-        compile_rollout=False,
+        compile_rollout="auto",
         objective="mse",
         ljung_box_lags=20,
         ljung_box_weight=1.0,
@@ -657,12 +677,41 @@ class StateSpaceHybridRegressor(
         # 2. Joint training by the simulation error, from the start kept here:
         # the hybrid never ends worse than its physics (below).
         start = {n: v.detach().clone() for n, v in module.state_dict().items()}
-        self.rollout_compiled_ = self._compiles_rollout()
-        net = train_module(
+        self.rollout_compiled_ = self._rollout_compilation(len(Ztr))
+        if self.rollout_compiled_ == "step":
+            module.compile_step(self._compile_kwargs("step"))
+        try:
+            net = self._train_jointly(module, Ztr, Ytr[:, k:] / module.y_scale, valid)
+        finally:
+            module.compile_step(None)
+        record_training(self, net)
+        module = net.module_.to("cpu").eval()
+        for p in module.parameters():
+            p.requires_grad_(False)
+        self.module_ = module
+        self.encoder_, self.correction_ = module.encoder, module.correction
+        self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
+        self.validation_scores_ = (
+            [float(v) for v in net.history[:, "valid_loss"]] if valid else []
+        )
+        monitored = windows_valid if valid is not None else windows_train
+        keep_physics_if_better(self, net, start, monitored[:2])
+        with torch.no_grad():
+            theta = module.params().numpy().copy()
+        self.params_ = self.physics_.unpack_params(theta)
+        self._params_t = module.physical_params()
+
+    def _train_jointly(self, module, Ztr, ytr, valid):
+        """The joint training's net: simulation error over the horizon.
+
+        Training starts from the module as built (the physics with a zero
+        correction), which is kept where no epoch beats it.
+        """
+        return train_module(
             self,
             lambda: module,
             Ztr,
-            Ytr[:, k:] / module.y_scale,
+            ytr,
             valid=valid,
             sequences=True,
             start_as_candidate=True,
@@ -683,48 +732,48 @@ class StateSpaceHybridRegressor(
                     ]
                 }
             ),
-            compile_kwargs=self._compile_kwargs() if self.rollout_compiled_ else None,
+            compile_kwargs=(
+                self._compile_kwargs("whole")
+                if self.rollout_compiled_ == "whole"
+                else None
+            ),
         )
-        record_training(self, net)
-        module = net.module_.to("cpu").eval()
-        for p in module.parameters():
-            p.requires_grad_(False)
-        self.module_ = module
-        self.encoder_, self.correction_ = module.encoder, module.correction
-        self.loss_curve_ = [float(v) for v in net.history[:, "train_loss"]]
-        self.validation_scores_ = (
-            [float(v) for v in net.history[:, "valid_loss"]] if valid else []
-        )
-        monitored = windows_valid if valid is not None else windows_train
-        keep_physics_if_better(self, net, start, monitored[:2])
-        with torch.no_grad():
-            theta = module.params().numpy().copy()
-        self.params_ = self.physics_.unpack_params(theta)
-        self._params_t = module.physical_params()
 
-    def _compiles_rollout(self):
-        """Whether the joint training runs the module through torch.compile.
+    def _rollout_compilation(self, n_sequences):
+        """What of the joint training runs through torch.compile, or None.
 
-        Only where asked (``compile_rollout=True``): on the CPU the
-        compilation was measured to cost more than the epochs it saves over a
-        fit, and on a GPU it is still to be measured (``docs/state_space.md``,
-        "Capturing the rollout").
+        ``"auto"`` compiles the step where the training may run at least
+        :data:`COMPILE_MIN_STEPS` batch steps (batches per epoch, times the
+        horizon, times ``max_epochs``): below that, the compilation would
+        cost about as much as it saves.
+
+        Parameters
+        ----------
+        n_sequences : int
+            Training sub-sequences.
         """
-        if current_member() is not None:
+        if current_member() is not None or self.compile_rollout is False:
             # Fits trained side by side run one batched call, eagerly.
-            return False
-        return bool(self.compile_rollout)
+            return None
+        if self.compile_rollout != "auto":
+            return self.compile_rollout
+        n_batches = -(-n_sequences // self.batch_size)
+        steps = n_batches * self.horizon * self.max_epochs
+        return "step" if steps >= COMPILE_MIN_STEPS else None
 
-    def _compile_kwargs(self):
-        """:func:`torch.compile`'s arguments for the joint training's module.
+    def _compile_kwargs(self, kind):
+        """:func:`torch.compile`'s arguments for the joint training.
 
-        On a GPU ``mode="reduce-overhead"``: inductor's kernels replayed as
-        CUDA graphs. The engine marks the batch dimension dynamic (the
-        training batches differ in size by at most a row, validation is one
-        batch of its own size), so a fit compiles one graph for training and
-        one for validation, each for every batch size.
+        The whole rollout on a GPU: ``mode="reduce-overhead"``, inductor's
+        kernels replayed as CUDA graphs. The engine marks the batch dimension
+        dynamic (the training batches differ in size by at most a row,
+        validation is one batch of its own size), so a fit compiles one graph
+        for training and one for validation. The step: inductor's default
+        mode, static shapes (a graph for each batch size, each in seconds).
         """
-        return {"mode": "reduce-overhead"} if self.device == "cuda" else {}
+        if kind == "whole" and self.device == "cuda":
+            return {"mode": "reduce-overhead"}
+        return {}
 
     def _states_along(self, physics, x0, U, n_times):
         """Physics states ``(n, n_times, n_states)`` from ``x0`` under ``U``."""

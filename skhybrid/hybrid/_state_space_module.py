@@ -1,5 +1,7 @@
 """The torch module of the state-space hybrid: encoder, physics, correction."""
 
+import warnings
+
 import torch
 from torch import nn
 
@@ -41,6 +43,53 @@ def mlp(n_in, n_out, hidden, activation="tanh"):
         width = int(size)
     layers.append(nn.Linear(width, n_out))
     return nn.Sequential(*layers).double()
+
+
+def _compile_errors():
+    """What a failed compilation raises (inductor without a C++ compiler, say)."""
+    import torch._dynamo
+    import torch._inductor
+
+    return tuple(
+        error
+        for error in (
+            getattr(torch._dynamo.exc, "BackendCompilerFailed", None),
+            getattr(getattr(torch._inductor, "exc", None), "InductorError", None),
+        )
+        if error is not None
+    )
+
+
+class _CompiledStep:
+    """A module's step through :func:`torch.compile`, eager where that fails.
+
+    Parameters
+    ----------
+    step : callable
+        The eager step.
+    compile_kwargs : dict
+        :func:`torch.compile`'s keyword arguments.
+    """
+
+    def __init__(self, step, compile_kwargs):
+        self.eager = step
+        self.compiled = torch.compile(step, **compile_kwargs)
+
+    def __call__(self, *args):
+        if self.compiled is not None:
+            try:
+                return self.compiled(*args)
+            except Exception as exc:
+                if not isinstance(exc, _compile_errors()):
+                    raise
+                warnings.warn(
+                    f"torch.compile could not compile the hybrid's step "
+                    f"({type(exc).__name__}); it runs eagerly.",
+                    UserWarning,
+                    stacklevel=2,
+                )
+                self.compiled = None
+        return self.eager(*args)
 
 
 class StateSpaceHybridModule(nn.Module):
@@ -283,17 +332,70 @@ class StateSpaceHybridModule(nn.Module):
         moved = augmented + self.augmented_scale * c[:, n_physics:]
         return torch.cat([x_next, moved], dim=1)
 
+    def step(self, x, u, params):
+        """One sample of :meth:`rollout`: the state after ``x`` and its outputs.
+
+        Parameters
+        ----------
+        x : torch.Tensor of shape (n, n_states + n_augmented)
+            The states.
+        u : torch.Tensor of shape (n, n_inputs)
+            The inputs acting from them.
+        params : dict
+            The physical parameters (:meth:`physical_params`).
+
+        Returns
+        -------
+        x_next : torch.Tensor of shape (n, n_states + n_augmented)
+            The corrected states one sample later (:meth:`advance`).
+        y : torch.Tensor of shape (n, n_outputs)
+            Their outputs (:meth:`observe`).
+        """
+        x = self.advance(x, u, params)
+        return x, self.observe(x, params)
+
+    def compile_step(self, compile_kwargs):
+        """Run :meth:`rollout`'s :meth:`step` through :func:`torch.compile`, or not.
+
+        One sample's step is a small graph: it compiles in seconds, where the
+        whole rollout (every sample of the horizon unrolled) takes minutes,
+        and it runs each sample's encoder-free arithmetic (physics, integrator
+        and correction, forward and backward) as a few fused kernels instead
+        of dozens of small operations. The loop over the samples stays in
+        Python. A compilation that fails (no C++ compiler, for example) warns
+        once and the module steps eagerly.
+
+        Parameters
+        ----------
+        compile_kwargs : dict or None
+            :func:`torch.compile`'s keyword arguments (shapes static unless
+            they say otherwise: a fit has a few batch sizes), or None to step
+            eagerly again. The compiled step is never pickled or copied.
+        """
+        if compile_kwargs is None:
+            self.__dict__.pop("_compiled_step", None)
+        else:
+            self.__dict__["_compiled_step"] = _CompiledStep(
+                self.step, {"dynamic": False, **compile_kwargs}
+            )
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        state.pop("_compiled_step", None)
+        return state
+
     def rollout(self, Yw, Uw, U_future, prior=None, params=None):
         """Outputs ``(n, T, p)`` after the window under inputs ``U_future (n, T, m)``.
 
         ``U_future[:, 0]`` acts from the window's last sample.
         """
         params = self._rollout_params() if params is None else params
+        step = self.__dict__.get("_compiled_step") or self.step
         x = self.encode(Yw, Uw, prior)
         outs = []
         for t in range(U_future.shape[1]):
-            x = self.advance(x, U_future[:, t], params)
-            outs.append(self.observe(x, params))
+            x, y = step(x, U_future[:, t], params)
+            outs.append(y)
         return torch.stack(outs, dim=1)
 
     # -- training --------------------------------------------------------------

@@ -1,18 +1,22 @@
 """StateSpaceHybridRegressor's captured rollout (``compile_rollout``).
 
-The forward pass traces whole (no graph break), a compiled training gives the
-eager one's history and weights, the fitted model pickles without its compiled
-module, and the training batches stay on the training device.
+The forward pass traces whole (no graph break), a compiled training (the step
+or the whole rollout) gives the eager one's history and weights, the fitted
+model pickles without anything compiled, ``"auto"`` compiles the step only
+where the training is long, a failed compilation falls back to eager with a
+warning, and the training batches stay on the training device.
 """
 
 import pickle
 
+import numpy as np
 import pytest
 import torch
 from numpy.testing import assert_allclose
 
 from skhybrid.domain import StateSpaceModel
 from skhybrid.hybrid import StateSpaceHybridRegressor
+from skhybrid.hybrid._state_space import COMPILE_MIN_STEPS
 from skhybrid.neural._callbacks import BatchIterator
 from tests.hybrid.test_state_space_hybrid import _model, _records, oscillator
 
@@ -86,46 +90,88 @@ def test_forward_pass_traces_without_graph_break(name):
     whole = torch.compile(module, fullgraph=True, backend="eager")
     with torch.no_grad():
         assert_allclose(whole(Z).numpy(), module(Z).numpy(), rtol=0, atol=0)
+    # So does one sample's step, compiled alone with ``compile_rollout="step"``.
+    Y, U, prior = module.unpack(Z)
+    k = module.n_init
+    x = module.encode(Y[:, :k], U[:, : k - 1], prior)
+    params = module.physical_params()
+    explained = torch._dynamo.explain(module.step)(x, U[:, k - 1], params)
+    assert explained.graph_break_count == 0, explained.break_reasons
 
 
-def test_compiled_training_matches_eager(monkeypatch):
+@pytest.mark.parametrize("kind", ["step", "whole"])
+def test_compiled_training_matches_eager(kind):
     u, y = _records()
     eager = _model(compile_rollout=False, n_augmented_states=1).fit_simulation(u, y)
     torch._dynamo.reset()
-    compiled = _model(compile_rollout=True, n_augmented_states=1)
+    compiled = _model(compile_rollout=kind, n_augmented_states=1)
     compiled.fit_simulation(u, y)
-    assert not eager.rollout_compiled_ and compiled.rollout_compiled_
+    assert eager.rollout_compiled_ is None and compiled.rollout_compiled_ == kind
     assert_allclose(compiled.loss_curve_, eager.loss_curve_, rtol=RTOL)
     assert_allclose(compiled.validation_scores_, eager.validation_scores_, rtol=RTOL)
     state = eager.module_.state_dict()
     for name, value in compiled.module_.state_dict().items():
         assert_allclose(value.numpy(), state[name].numpy(), rtol=RTOL, atol=1e-12)
-    # Fitted models are pickled (joblib): no compiled module is left in them,
+    # Fitted models are pickled (joblib): nothing compiled is left in them,
     # and the restored model simulates as the eager-trained twin does.
     assert type(compiled.module_) is type(eager.module_)
     assert "_compiled_module" not in compiled.net_.__dict__
+    assert "_compiled_step" not in compiled.module_.__dict__
     restored = pickle.loads(pickle.dumps(compiled))
     assert_allclose(
         restored.simulate(u, y[:, :3]), eager.simulate(u, y[:, :3]), rtol=1e-7
     )
 
 
-def test_compiles_only_where_asked(monkeypatch):
+def test_auto_compiles_the_step_only_for_a_long_training(monkeypatch):
     def refuse(*args, **kwargs):
-        raise AssertionError("torch.compile called by default")
+        raise AssertionError("torch.compile called for a short training")
 
     monkeypatch.setattr(torch, "compile", refuse)
     u, y = _records()
     model = _model(max_epochs=1).fit_simulation(u, y)
-    assert model.compile_rollout is False and not model.rollout_compiled_
-    assert model._compile_kwargs() == {}
-    assert not _model(device="cuda", compile_rollout=False)._compiles_rollout()
-    on_gpu = _model(device="cuda", compile_rollout=True)
-    assert on_gpu._compiles_rollout()
-    assert on_gpu._compile_kwargs() == {"mode": "reduce-overhead"}
+    assert model.compile_rollout == "auto" and model.rollout_compiled_ is None
+    # The rule: batches per epoch, times the horizon, times max_epochs.
+    model = _model(batch_size=10, horizon=20)
+    n_sequences = 50  # 5 batches, 100 batch steps an epoch
+    at_least = COMPILE_MIN_STEPS // 100
+    compiles = model.set_params(max_epochs=at_least)._rollout_compilation(n_sequences)
+    assert compiles == "step"
+    assert (
+        model.set_params(max_epochs=at_least - 1)._rollout_compilation(n_sequences)
+        is None
+    )
+    assert model.set_params(compile_rollout=False)._rollout_compilation(10**9) is None
+    assert model.set_params(compile_rollout="whole")._rollout_compilation(1) == "whole"
+    assert model._compile_kwargs("whole") == {}
+    on_gpu = _model(device="cuda", compile_rollout="whole")
+    assert on_gpu._compile_kwargs("whole") == {"mode": "reduce-overhead"}
+    assert on_gpu._compile_kwargs("step") == {}
 
 
-@pytest.mark.parametrize("value", ["yes", "auto", 1, None])
+def test_failed_compilation_warns_and_trains_eagerly(monkeypatch):
+    # Inductor without a C++ compiler fails at the first call, as here.
+    def failing_compile(function, **kwargs):
+        def compiled(*args):
+            error = torch._dynamo.exc.BackendCompilerFailed.__new__(
+                torch._dynamo.exc.BackendCompilerFailed
+            )
+            Exception.__init__(error, "inductor: no C++ compiler")
+            raise error
+
+        return compiled
+
+    u, y = _records()
+    eager = _model(compile_rollout=False).fit_simulation(u, y)
+    monkeypatch.setattr(torch, "compile", failing_compile)
+    with pytest.warns(UserWarning, match="could not compile the hybrid's step"):
+        fallen = _model(compile_rollout="step").fit_simulation(u, y)
+    assert fallen.rollout_compiled_ == "step"
+    assert_allclose(fallen.loss_curve_, eager.loss_curve_, rtol=0)
+    assert np.isfinite(fallen.loss_curve_).all()
+
+
+@pytest.mark.parametrize("value", ["yes", "rollout", True, 1, None])
 def test_invalid_compile_rollout_raises(value):
     u, y = _records()
     with pytest.raises(ValueError, match=rf"'compile_rollout'.*Got {value!r}"):
@@ -164,8 +210,8 @@ def test_cuda_captured_training_matches_cpu_eager():
     u, y = _records()
     cpu = _model(compile_rollout=False).fit_simulation(u, y)
     torch._dynamo.reset()
-    gpu = _model(device="cuda", compile_rollout=True).fit_simulation(u, y)
-    assert gpu.rollout_compiled_
+    gpu = _model(device="cuda", compile_rollout="whole").fit_simulation(u, y)
+    assert gpu.rollout_compiled_ == "whole"
     # float64 on both; CUDA's reductions add in another order.
     assert_allclose(gpu.loss_curve_, cpu.loss_curve_, rtol=1e-6)
     assert next(gpu.module_.parameters()).device.type == "cpu"

@@ -313,26 +313,17 @@ class CyclicLoss(ObjectiveLoss):
     """``objective(y, y_hat) + cycle_weight * mse(X, decoder(y_hat))``.
 
     Takes the output ``(y_hat, X_reconstructed, X)`` of :class:`CycleTrainingModule`.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        :class:`ObjectiveLoss`'s.
+    cycle_weight : float, default=1.0
+        Weight of the reconstruction's mean squared error.
     """
 
-    def __init__(
-        self,
-        objective="mse",
-        lags=20,
-        ljung_box_weight=1.0,
-        segment_length=None,
-        ljung_box_scale=None,
-        segment_count=None,
-        cycle_weight=1.0,
-    ):
-        super().__init__(
-            objective,
-            lags,
-            ljung_box_weight,
-            segment_length,
-            ljung_box_scale,
-            segment_count,
-        )
+    def __init__(self, *args, cycle_weight=1.0, **kwargs):
+        super().__init__(*args, **kwargs)
         self.cycle_weight = cycle_weight
 
     def forward(self, y_pred, y_true):

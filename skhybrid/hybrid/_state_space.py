@@ -8,6 +8,7 @@ correction and physical parameters are trained jointly by the simulation error
 over sub-sequences of ``horizon`` steps.
 """
 
+import contextlib
 from numbers import Integral, Real
 
 import numpy as np
@@ -82,6 +83,22 @@ def _safe_scale(values, axis=0):
     s = np.std(values, axis=axis)
     m = np.mean(values, axis=axis)
     return np.where(s > 1e-12 * (1 + np.abs(m)), s, 1.0)
+
+
+#: How many graphs of one compiled function (the step, or the module) a
+#: process keeps during a joint training: one for each architecture, batch
+#: size and grad mode it met, as the fits of a search in one worker add them.
+#: torch's default, 8, would send a worker's later fits back to eager.
+RECOMPILE_LIMIT = 256
+
+
+@contextlib.contextmanager
+def _room_for_recompiles():
+    """Within: :data:`RECOMPILE_LIMIT` graphs per compiled function."""
+    import torch._dynamo
+
+    with torch._dynamo.config.patch(recompile_limit=RECOMPILE_LIMIT):
+        yield
 
 
 #: The fewest batch steps (batches per epoch, times the horizon, times
@@ -681,7 +698,10 @@ class StateSpaceHybridRegressor(
         if self.rollout_compiled_ == "step":
             module.compile_step(self._compile_kwargs("step"))
         try:
-            net = self._train_jointly(module, Ztr, Ytr[:, k:] / module.y_scale, valid)
+            with _room_for_recompiles():
+                net = self._train_jointly(
+                    module, Ztr, Ytr[:, k:] / module.y_scale, valid
+                )
         finally:
             module.compile_step(None)
         record_training(self, net)

@@ -16,7 +16,11 @@ from numpy.testing import assert_allclose
 
 from skhybrid.domain import StateSpaceModel
 from skhybrid.hybrid import StateSpaceHybridRegressor
-from skhybrid.hybrid._state_space import COMPILE_MIN_STEPS
+from skhybrid.hybrid._state_space import (
+    COMPILE_MIN_STEPS,
+    RECOMPILE_LIMIT,
+    _room_for_recompiles,
+)
 from skhybrid.neural._callbacks import BatchIterator
 from tests.hybrid.test_state_space_hybrid import _model, _records, oscillator
 
@@ -147,6 +151,27 @@ def test_auto_compiles_the_step_only_for_a_long_training(monkeypatch):
     on_gpu = _model(device="cuda", compile_rollout="whole")
     assert on_gpu._compile_kwargs("whole") == {"mode": "reduce-overhead"}
     assert on_gpu._compile_kwargs("step") == {}
+
+
+def test_a_training_has_room_for_a_workers_graphs(monkeypatch):
+    # A worker of a search compiles one graph per architecture, batch size and
+    # grad mode; torch's default of 8 would leave its later fits eager.
+    seen = []
+    original = StateSpaceHybridRegressor._train_jointly
+
+    def spy(self, *args):
+        seen.append(torch._dynamo.config.recompile_limit)
+        return original(self, *args)
+
+    monkeypatch.setattr(StateSpaceHybridRegressor, "_train_jointly", spy)
+    before = torch._dynamo.config.recompile_limit
+    u, y = _records()
+    _model(compile_rollout=False).fit_simulation(u, y)
+    assert seen == [RECOMPILE_LIMIT] and RECOMPILE_LIMIT > 8
+    assert torch._dynamo.config.recompile_limit == before
+    with _room_for_recompiles():
+        assert torch._dynamo.config.recompile_limit == RECOMPILE_LIMIT
+    assert torch._dynamo.config.recompile_limit == before
 
 
 def test_failed_compilation_warns_and_trains_eagerly(monkeypatch):

@@ -906,7 +906,8 @@ def hybrid_settings(horizon, hidden, **extra):
     """Settings of one state-space hybrid candidate of the family.
 
     The training settings are written out (``lr=0.01``, ``batch_size=256``,
-    at most 200 epochs, no augmented states, the encoder correcting the
+    at most 200 epochs, patience 30 and 10 for the learning rate, no
+    augmented states, the encoder correcting the
     physics' state estimate, a tanh correction), chosen on validation only on
     ``benchmarks/bench_state_space_defaults.py`` and the built-in benchmarks
     (the benchmark log, ``benchmarks/LOG.md``, has the figures); the hybrid's
@@ -935,6 +936,7 @@ def hybrid_settings(horizon, hidden, **extra):
         "batch_size": 256,
         "max_epochs": 200,
         "patience": 30,
+        "lr_patience": 10,
         "validation_fraction": 0.2,
         "n_augmented_states": 0,
         "physics_initial_state": True,

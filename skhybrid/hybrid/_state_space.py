@@ -477,8 +477,8 @@ class StateSpaceHybridRegressor(
         batch_size=64,
         validation_fraction=0.2,
         target_scaling="per_output",
-        patience=30,
-        lr_patience=10,
+        patience=60,
+        lr_patience=20,
         lr_factor=0.5,
         callbacks=None,
         random_state=None,
@@ -963,6 +963,18 @@ _SEQUENCE_DEFAULTS = {
             "missing-physics suite, 256 left an epoch of a few thousand samples "
             "four updates, and the training stopped short)."
         ),
+    ),
+    "patience": (
+        60,
+        (
+            "Twice the networks' default: on the missing-physics suite the "
+            "correction went on improving after 30 epochs without progress "
+            "(``docs/state_space.md``, \"The defaults, and what they cost\")."
+        ),
+    ),
+    "lr_patience": (
+        20,
+        "Twice the networks' default, with ``patience``.",
     ),
 }
 

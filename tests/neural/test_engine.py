@@ -71,8 +71,16 @@ def test_only_the_state_space_hybrid_has_other_defaults_with_reasons():
         for name, spec in TRAINING_PARAMETERS.items():
             if signature[name].default != spec.default:
                 differing.setdefault(cls.__name__, set()).add(name)
-    # A batch of sub-sequences, epochs over simulated horizons: see its docstring.
-    assert differing == {"StateSpaceHybridRegressor": {"max_epochs", "batch_size"}}
+    # A batch of sub-sequences, epochs over simulated horizons, a patience set
+    # on the missing-physics suite: see its docstring.
+    assert differing == {
+        "StateSpaceHybridRegressor": {
+            "max_epochs",
+            "batch_size",
+            "patience",
+            "lr_patience",
+        }
+    }
 
 
 def test_gradient_steps_live_in_the_engine_only():

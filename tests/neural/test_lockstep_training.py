@@ -68,6 +68,9 @@ def _hybrid():
         max_epochs=3,
         batch_size=16,
         random_state=0,
+        # The case the tolerances below were set on (the hybrid's default
+        # became 20; it schedules the encoder's pre-training too).
+        lr_patience=10,
     )
 
 

@@ -7,8 +7,11 @@ jobs by default), the choice refitted on the whole records. No test record is re
 the figures are times, the chosen candidate and each candidate's CV RMSE in
 the benchmark's units (to check that a faster engine chooses as before), and
 the peak memory of this process and its workers. Run it at two commits (a
-clean clone of each, one after the other on a quiet machine) to compare them;
-it runs unchanged at ``cb05695``.
+clean clone of each, one after the other on a quiet machine) to compare them.
+Before ``experiments/`` was laid out by what it does (``2b5f039``), run this
+script as it was at ``d73f964`` (``git show
+d73f964:benchmarks/bench_physics_search.py``), which runs unchanged at
+``cb05695``.
 
 Run: ``python benchmarks/bench_physics_search.py emps --data ../shared/data``;
 ``--model "state-space hybrid"`` times the hybrid's search.

@@ -285,15 +285,15 @@ class StateSpaceHybridRegressor(
           is compiled, the loop over the horizon stays in Python. It compiles
           in seconds, a few times per fit (once per batch size), and on the
           CPU an epoch of the missing-physics suite's hardening spring took
-          about a third of an eager one.
+          0.39 times an eager one.
         - ``"whole"``: the whole rollout (encoder and every sample of the
           horizon) is one graph, the batch dimension dynamic; on
           ``device="cuda"`` with ``mode="reduce-overhead"`` (inductor's kernels
           replayed as CUDA graphs). On the CPU its compilation takes as long
           as thousands of eager epochs.
         - ``"auto"``: ``"step"`` where the joint training is long enough to
-          pay for its compilation (at least ``COMPILE_MIN_STEPS`` batch steps
-          over ``max_epochs``), else eager.
+          pay for its compilation (at least 50,000 batch steps: batches per
+          epoch, times ``horizon``, times ``max_epochs``), else eager.
         - ``False``: eager.
 
         Where the compilation fails (no C++ compiler, say) a warning says so
@@ -698,7 +698,13 @@ class StateSpaceHybridRegressor(
         if self.rollout_compiled_ == "step":
             module.compile_step(self._compile_kwargs("step"))
         try:
-            with _room_for_recompiles():
+            # Not around eager trainings: fits side by side run in threads,
+            # and a patch of torch's global configuration is not per thread.
+            with (
+                _room_for_recompiles()
+                if self.rollout_compiled_
+                else contextlib.nullcontext()
+            ):
                 net = self._train_jointly(
                     module, Ztr, Ytr[:, k:] / module.y_scale, valid
                 )
@@ -969,7 +975,7 @@ _SEQUENCE_DEFAULTS = {
         (
             "Twice the networks' default: on the missing-physics suite the "
             "correction went on improving after 30 epochs without progress "
-            "(``docs/state_space.md``, \"The defaults, and what they cost\")."
+            '(``docs/state_space.md``, "The defaults, and what they cost").'
         ),
     ),
     "lr_patience": (

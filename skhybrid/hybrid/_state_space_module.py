@@ -358,12 +358,12 @@ class StateSpaceHybridModule(nn.Module):
         """Run :meth:`rollout`'s :meth:`step` through :func:`torch.compile`, or not.
 
         One sample's step is a small graph: it compiles in seconds, where the
-        whole rollout (every sample of the horizon unrolled) takes minutes,
-        and it runs each sample's encoder-free arithmetic (physics, integrator
-        and correction, forward and backward) as a few fused kernels instead
-        of dozens of small operations. The loop over the samples stays in
-        Python. A compilation that fails (no C++ compiler, for example) warns
-        once and the module steps eagerly.
+        whole rollout (every sample of the horizon unrolled) takes many
+        minutes on the CPU, and it runs each sample's arithmetic (physics,
+        integrator and correction, forward and backward) as a few fused
+        kernels instead of dozens of small operations. The loop over the
+        samples stays in Python. A compilation that fails (no C++ compiler,
+        for example) warns once and the module steps eagerly.
 
         Parameters
         ----------
@@ -380,7 +380,8 @@ class StateSpaceHybridModule(nn.Module):
             )
 
     def __getstate__(self):
-        state = super().__getstate__()
+        # A copy: the module being pickled keeps its compiled step.
+        state = dict(super().__getstate__())
         state.pop("_compiled_step", None)
         return state
 

@@ -127,6 +127,16 @@ def test_compiled_training_matches_eager(kind):
     )
 
 
+def test_a_compiled_step_is_neither_pickled_nor_lost_by_pickling():
+    module, _ = _fitted(HYBRIDS["discrete, augmented state"])
+    module.compile_step({})  # torch.compile compiles at the first call only
+    restored = pickle.loads(pickle.dumps(module))
+    assert "_compiled_step" in module.__dict__
+    assert "_compiled_step" not in restored.__dict__
+    module.compile_step(None)
+    assert "_compiled_step" not in module.__dict__
+
+
 def test_auto_compiles_the_step_only_for_a_long_training(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("torch.compile called for a short training")
@@ -166,8 +176,11 @@ def test_a_training_has_room_for_a_workers_graphs(monkeypatch):
     monkeypatch.setattr(StateSpaceHybridRegressor, "_train_jointly", spy)
     before = torch._dynamo.config.recompile_limit
     u, y = _records()
-    _model(compile_rollout=False).fit_simulation(u, y)
+    _model(compile_rollout="step").fit_simulation(u, y)
     assert seen == [RECOMPILE_LIMIT] and RECOMPILE_LIMIT > 8
+    # An eager training leaves torch's configuration alone.
+    _model(compile_rollout=False).fit_simulation(u, y)
+    assert seen[1:] == [before]
     assert torch._dynamo.config.recompile_limit == before
     with _room_for_recompiles():
         assert torch._dynamo.config.recompile_limit == RECOMPILE_LIMIT

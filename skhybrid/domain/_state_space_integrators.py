@@ -241,10 +241,8 @@ class _IntegratorMixin:
 
         Parameters
         ----------
-        x : ndarray or torch.Tensor of shape (n, n_states)
-            States at the current sample.
-        u : ndarray or torch.Tensor of shape (n, n_inputs)
-            Inputs held over the sample period.
+        x, u : ndarray or torch.Tensor
+            States and inputs, as in :meth:`step`.
         params : dict
             Parameter values by name (for example from :meth:`unpack_params_in`).
         xp : module

@@ -1,11 +1,10 @@
 """The torch module of the state-space hybrid: encoder, physics, correction."""
 
-import warnings
-
 import torch
 from torch import nn
 
 from skhybrid.utils._array_api import get_namespace
+from skhybrid.utils._compile import CompiledOrEager
 from skhybrid.utils._lockstep import physics_signature
 
 __all__ = ["ACTIVATIONS", "EncoderModule", "StateSpaceHybridModule", "mlp"]
@@ -43,53 +42,6 @@ def mlp(n_in, n_out, hidden, activation="tanh"):
         width = int(size)
     layers.append(nn.Linear(width, n_out))
     return nn.Sequential(*layers).double()
-
-
-def _compile_errors():
-    """What a failed compilation raises (inductor without a C++ compiler, say)."""
-    import torch._dynamo
-    import torch._inductor
-
-    return tuple(
-        error
-        for error in (
-            getattr(torch._dynamo.exc, "BackendCompilerFailed", None),
-            getattr(getattr(torch._inductor, "exc", None), "InductorError", None),
-        )
-        if error is not None
-    )
-
-
-class _CompiledStep:
-    """A module's step through :func:`torch.compile`, eager where that fails.
-
-    Parameters
-    ----------
-    step : callable
-        The eager step.
-    compile_kwargs : dict
-        :func:`torch.compile`'s keyword arguments.
-    """
-
-    def __init__(self, step, compile_kwargs):
-        self.eager = step
-        self.compiled = torch.compile(step, **compile_kwargs)
-
-    def __call__(self, *args):
-        if self.compiled is not None:
-            try:
-                return self.compiled(*args)
-            except Exception as exc:
-                if not isinstance(exc, _compile_errors()):
-                    raise
-                warnings.warn(
-                    f"torch.compile could not compile the hybrid's step "
-                    f"({type(exc).__name__}); it runs eagerly.",
-                    UserWarning,
-                    stacklevel=2,
-                )
-                self.compiled = None
-        return self.eager(*args)
 
 
 class StateSpaceHybridModule(nn.Module):
@@ -375,8 +327,8 @@ class StateSpaceHybridModule(nn.Module):
         if compile_kwargs is None:
             self.__dict__.pop("_compiled_step", None)
         else:
-            self.__dict__["_compiled_step"] = _CompiledStep(
-                self.step, {"dynamic": False, **compile_kwargs}
+            self.__dict__["_compiled_step"] = CompiledOrEager(
+                self.step, {"dynamic": False, **compile_kwargs}, "the hybrid's step"
             )
 
     def __getstate__(self):

@@ -38,6 +38,7 @@ from skhybrid.neural._pretraining import (
     finetune,
     propose_candidate,
 )
+from skhybrid.utils._compile import CompiledOrEager
 from skhybrid.utils._lockstep import current_member
 from skhybrid.utils._sklearn_compat import Interval, StrOptions
 
@@ -295,13 +296,16 @@ class _Net(NeuralNetRegressor):
 
         The compiled module shares the module's parameters and buffers:
         ``module_`` stays the eager module, so the optimiser, the state dicts
-        of early stopping and the pickles are the eager module's.
+        of early stopping and the pickles are the eager module's. Where the
+        compilation fails, a warning says so and the module runs eagerly.
         """
         if self.compile_kwargs is None:
             return None
         compiled = self.__dict__.get("_compiled_module")
-        if compiled is None or compiled._orig_mod is not self.module_:
-            compiled = torch.compile(self.module_, **self.compile_kwargs)
+        if compiled is None or compiled.eager is not self.module_:
+            compiled = CompiledOrEager(
+                self.module_, self.compile_kwargs, "the network's forward pass"
+            )
             # Around skorch's __setattr__, which would register a torch module
             # as a part of the net (moved, saved and pickled with it).
             object.__setattr__(self, "_compiled_module", compiled)

@@ -187,7 +187,8 @@ def test_a_training_has_room_for_a_workers_graphs(monkeypatch):
     assert torch._dynamo.config.recompile_limit == before
 
 
-def test_failed_compilation_warns_and_trains_eagerly(monkeypatch):
+@pytest.mark.parametrize("kind", ["step", "whole"])
+def test_failed_compilation_warns_and_trains_eagerly(kind, monkeypatch):
     # Inductor without a C++ compiler fails at the first call, as here.
     def failing_compile(function, **kwargs):
         def compiled(*args):
@@ -202,9 +203,10 @@ def test_failed_compilation_warns_and_trains_eagerly(monkeypatch):
     u, y = _records()
     eager = _model(compile_rollout=False).fit_simulation(u, y)
     monkeypatch.setattr(torch, "compile", failing_compile)
-    with pytest.warns(UserWarning, match="could not compile the hybrid's step"):
-        fallen = _model(compile_rollout="step").fit_simulation(u, y)
-    assert fallen.rollout_compiled_ == "step"
+    what = {"step": "the hybrid's step", "whole": "the network's forward pass"}
+    with pytest.warns(UserWarning, match=f"could not compile {what[kind]}"):
+        fallen = _model(compile_rollout=kind).fit_simulation(u, y)
+    assert fallen.rollout_compiled_ == kind
     assert_allclose(fallen.loss_curve_, eager.loss_curve_, rtol=0)
     assert np.isfinite(fallen.loss_curve_).all()
 

@@ -51,7 +51,7 @@ STACK_MODEL = "stacked"
 #: The release runs' record (docs/results.md): system -> chosen models at seeds
 #: 0, 1, 2, each seed's CV RMSE of its chosen model (official units), the hash
 #: of the choices (the sealed selection without its provenance) and the seal's
-#: SHA-256 itself. From the release run of 2026-11-27 at commit aa988ac, the
+#: SHA-256 itself. From the release run of 2026-11-29 at commit 188add5, the
 #: family with its stack (``"stack": True``; benchmarks/LOG.md). A record
 #: without ``"stack": True`` would be one made before the family had its stack:
 #: the check then compares the family without it, chosen by the same rule, and
@@ -64,27 +64,27 @@ REFERENCE = {
             "2": "stacked",
         },
         "cv_rmse": {
-            "0": 0.2421077464798458,
-            "1": 0.2421077464798458,
-            "2": 0.2421077464798458,
+            "0": 0.2531484556039966,
+            "1": 0.2531484556039966,
+            "2": 0.2531484556039966,
         },
-        "choices_sha256": "5b5285fc202c7e6358c2234554905ba6a1d2b6f46636b3ceff7757cac016b203",  # noqa: E501
-        "selection_sha256": "d52aee0dbd6fb30f296a2633519e5700b8c022e6e5366fe6588c264a4ecad6ff",  # noqa: E501
+        "choices_sha256": "9898d581d59c5e4186b0e4cbd96c4f9b686015ea58c329aff79a0500435b711f",  # noqa: E501
+        "selection_sha256": "a6215ca1507af85d27b6c0a44f3c68df6faf92cb6510213f32faa4691a24bc57",  # noqa: E501
         "stack": True,
     },
     "friction-damper": {
         "chosen": {
-            "0": "physics + dense ensemble",
-            "1": "physics + dense ensemble",
-            "2": "physics + dense ensemble",
+            "0": "physics + dense",
+            "1": "physics + dense",
+            "2": "physics + dense",
         },
         "cv_rmse": {
-            "0": 0.351815668007194,
-            "1": 0.351815668007194,
-            "2": 0.351815668007194,
+            "0": 0.3548556024940649,
+            "1": 0.3548556024940649,
+            "2": 0.3548556024940649,
         },
-        "choices_sha256": "ad55c0ea19cf87bd0d8cf9d4181dd1143a13ac95022a0a38688f68081cea1d7f",  # noqa: E501
-        "selection_sha256": "6f826690bec7fdd6b0c7de27ce494ceaf8999c3136bfaf1f95e60dde3638ad41",  # noqa: E501
+        "choices_sha256": "a1cda99d591a2746697206c538776502a40b10305699a0faf5b31d3e2801e2b9",  # noqa: E501
+        "selection_sha256": "674f56c8d08ec1b433eedd5bfc0bb20d342db3ff5776e288d32530d9aec77c2c",  # noqa: E501
         "stack": True,
     },
     "coupled-electric-drives": {
@@ -94,12 +94,12 @@ REFERENCE = {
             "2": "state-space hybrid",
         },
         "cv_rmse": {
-            "0": 0.16541461967836316,
-            "1": 0.16541461967836316,
-            "2": 0.16541461967836316,
+            "0": 0.1645864854572301,
+            "1": 0.1645864854572301,
+            "2": 0.1645864854572301,
         },
-        "choices_sha256": "e256ed4b585a36a1318c013415b5bea9851a7522785f516b6249a71496bf83c8",  # noqa: E501
-        "selection_sha256": "c3ee2195549e63a688f0f7661ccffae81f46cd614febe84b4bdeddf8986dc037",  # noqa: E501
+        "choices_sha256": "dcb9fb0e00d0ce39e5aaf068fda2c76ab9a6251c765957e66cb08df2022ba7b2",  # noqa: E501
+        "selection_sha256": "ffd1fa851d2ef9c9ae289e9bf16839d69a496b464f90ffa0fbf6fe918ecc95ad",  # noqa: E501
         "stack": True,
     },
     "emps": {
@@ -109,12 +109,12 @@ REFERENCE = {
             "2": "physics",
         },
         "cv_rmse": {
-            "0": 1.4428454945346316,
-            "1": 1.4428454945346316,
-            "2": 1.4428454945346316,
+            "0": 1.4423927222625061,
+            "1": 1.4423927222625061,
+            "2": 1.4423927222625061,
         },
-        "choices_sha256": "4aefcf5df498ad8c38089041c1c63efdca46233987316e0ff7d789e5cd2b112a",  # noqa: E501
-        "selection_sha256": "df673e13b80a31dcba7a946342fbf7b61bb7dc4bef37da53018cb164e93cdb43",  # noqa: E501
+        "choices_sha256": "8bba1cdb43beb4400261b07db7951be1d10438b50387641ce19f029e3304b99c",  # noqa: E501
+        "selection_sha256": "dd77adf5be14fdd4a6b845198bcbd3eb85c5fcff12b2b288839e66a55f526d41",  # noqa: E501
         "stack": True,
     },
     "wiener-hammerstein": {
@@ -124,30 +124,35 @@ REFERENCE = {
             "2": "physics + linear",
         },
         "cv_rmse": {
-            "0": 0.2779793351232822,
-            "1": 0.2779793351232822,
-            "2": 0.2779793351232822,
+            "0": 0.2779283719811644,
+            "1": 0.2779283719811644,
+            "2": 0.2779283719811644,
         },
-        "choices_sha256": "cb58e5bc4db7dabe14871358d7576627dd2fb12d28849544cf7e19d28534076c",  # noqa: E501
-        "selection_sha256": "201827d69bd8b095538dcc7c09f3288a3cad7af39d2ee45763157e3d971d3772",  # noqa: E501
+        "choices_sha256": "2598ef3feaef6a1ab2210bfff89d3f590113c2f922a47a4969d1ef23c8bb62f3",  # noqa: E501
+        "selection_sha256": "fa82af4b53d9fadacf0cbfbfaa50a883b5590dff1ea081b100cfa1e1e598d752",  # noqa: E501
         "stack": True,
     },
     "silverbox": {
-        "chosen": {"0": "stacked", "1": "stacked", "2": "stacked"},
-        "cv_rmse": {
-            "0": 0.20560902619586235,
-            "1": 0.20560902619586235,
-            "2": 0.20560902619586235,
+        "chosen": {
+            "0": "stacked",
+            "1": "stacked",
+            "2": "stacked",
         },
-        "choices_sha256": "743a0989bc130329e55f71e9c8c2375496b8b651b64009c7c43848d648460053",  # noqa: E501
-        "selection_sha256": "ec6b6d64f1ba1d2825505db86f8d95f56230d8bb28bfa7d56efe02910663d159",  # noqa: E501
+        "cv_rmse": {
+            "0": 0.20561621400309293,
+            "1": 0.20561621400309293,
+            "2": 0.20561621400309293,
+        },
+        "choices_sha256": "bde5badd7086145a43cc3c1133aabc79d0fac40932b934c81ef10bc9238b6601",  # noqa: E501
+        "selection_sha256": "ee0ec602548af6f4b890fd0c8a7c6169269e7775590cd5b861ca26adc7cf8b07",  # noqa: E501
         "stack": True,
     },
 }
 
 #: The CPU kernels a release run is recorded with (this project's machine's):
-#: torch's AVX-512 and OpenBLAS's SkylakeX.
-_AVX512 = {"ATEN_CPU_CAPABILITY": "avx512", "OPENBLAS_CORETYPE": "SkylakeX"}
+#: torch's AVX-512 and OpenBLAS's Haswell (the release run of 2026-11-27 had
+#: OpenBLAS's SkylakeX).
+_AVX512 = {"ATEN_CPU_CAPABILITY": "avx512", "OPENBLAS_CORETYPE": "Haswell"}
 KERNELS = dict.fromkeys(MEASURED, _AVX512)
 
 #: The selection-only run, in a fresh interpreter that has the kernels set.

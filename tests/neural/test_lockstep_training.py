@@ -129,3 +129,24 @@ def test_a_search_batches_a_hybrids_folds_on_a_gpu_only():
     # (docs/results.md): the search spreads them over its workers instead.
     assert not _hybrid().fits_in_lockstep
     assert _hybrid().set_params(device="cuda").fits_in_lockstep
+
+
+@pytest.mark.gpu
+def test_members_in_lockstep_on_a_gpu_match_their_fits_alone(pieces):
+    # Where the search batches a hybrid's folds: on the GPU.
+    if not torch.cuda.is_available():
+        pytest.skip("needs CUDA")
+    alone = [_fit((_hybrid().set_params(device="cuda"), p)) for p in pieces]
+    together = [_hybrid().set_params(device="cuda") for _ in pieces]
+    assert together[0].fits_in_lockstep
+    outcomes = run_in_lockstep(list(zip(together, pieces, strict=True)), _fit)
+    for outcome in outcomes:
+        assert not isinstance(outcome, BaseException), outcome
+    for solo, member in zip(alone, together, strict=True):
+        assert member.n_epochs_ == solo.n_epochs_
+        # float64 on the device; a batched call's reductions add in another
+        # order than a member's own.
+        np.testing.assert_allclose(member.loss_curve_, solo.loss_curve_, rtol=1e-6)
+        np.testing.assert_allclose(
+            _weights(member).cpu(), _weights(solo).cpu(), rtol=1e-5, atol=1e-7
+        )

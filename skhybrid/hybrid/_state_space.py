@@ -477,8 +477,8 @@ class StateSpaceHybridRegressor(
         batch_size=64,
         validation_fraction=0.2,
         target_scaling="per_output",
-        patience=60,
-        lr_patience=20,
+        patience=100,
+        lr_patience=30,
         lr_factor=0.5,
         callbacks=None,
         random_state=None,
@@ -971,16 +971,16 @@ _SEQUENCE_DEFAULTS = {
         ),
     ),
     "patience": (
-        60,
+        100,
         (
-            "Twice the networks' default: on the missing-physics suite the "
-            "correction went on improving after 30 epochs without progress "
+            "On the missing-physics suite the correction went on improving "
+            "after 30 and 60 epochs without progress "
             '(``docs/state_space.md``, "The defaults, and what they cost").'
         ),
     ),
     "lr_patience": (
-        20,
-        "Twice the networks' default, with ``patience``.",
+        30,
+        "Three times the networks' default, with ``patience``.",
     ),
 }
 

@@ -68,8 +68,8 @@ def _hybrid():
         max_epochs=3,
         batch_size=16,
         random_state=0,
-        # The case the tolerances below were set on (the hybrid's default
-        # became 20; it schedules the encoder's pre-training too).
+        # The case the tolerances below were set on (the hybrid's default is
+        # larger; it schedules the encoder's pre-training too).
         lr_patience=10,
     )
 
